@@ -33,11 +33,17 @@
 pub mod camera;
 pub mod checksum;
 pub mod error;
+pub mod film;
 pub mod fsutil;
 pub mod geometry;
 pub mod grid;
+pub mod integrator;
 pub mod light;
 pub mod medium;
+pub mod photon;
+pub mod photon_map;
+pub mod reference;
+pub mod render;
 pub mod rng;
 pub mod sampling;
 pub mod scene;

@@ -12,7 +12,7 @@
 //! | `free_path` | `delta` | correct sampler; `thesis` reproduces §5.1/§7.1.2 |
 //! | `shadow` | `march` | §6: transmittance to the light by ray marching |
 //! | `quadrature` | `exact` | per-segment `(1 − e^{−σtΔx})/σt` instead of `Δx` |
-//! | `estimate` | `albedo` | `Λ·Σ p ΔΦ / (4/3 π r³)`; `thesis` omits Λ (eq. 11) |
+//! | `estimate` | `fluence` | `σs(x)·Σ p ΔΦ/(σt(x_p)·4/3 π r³)`; `albedo` and `thesis` (eq. 11) assume σt constant in the gather sphere |
 //! | `termination` | 0.001 | stop marching when eye transmittance < 0.1 % |
 //! | `shadow_cache`, `ms_cache` | 0 (off) | exact path by default |
 //! | `spp` | 1 | one jittered eye ray per pixel, as the thesis |
@@ -57,14 +57,23 @@ pub enum Quadrature {
     Riemann,
 }
 
-/// Radiance estimate normalisation (§5.2, eq. 11).
+/// Radiance estimate form (§5.2, eq. 11).
+///
+/// Photons are stored at every interaction, i.e. at rate σt along their paths, so
+/// `Σ ΔΦ / V` estimates `σt·φ` averaged over the gather sphere (φ the fluence), while the
+/// in-scattering source term is `σs(x)·p·φ(x)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Estimate {
-    /// `Λ·Σ p·ΔΦ/(4/3 π r³)`: photons are stored at every interaction (rate σt), while
-    /// in-scattering happens at rate σs = Λ·σt.
+    /// `σs(x)·Σ p·ΔΦ_p / (σt(x_p)·4/3 π r³)`: each photon's power over σt where it was
+    /// stored estimates the fluence, which is continuous across density edges; then the
+    /// local σs is applied. Consistent in heterogeneous media (the default).
+    Fluence,
+    /// `Λ·Σ p·ΔΦ/(4/3 π r³)`: fixes eq. 11's missing albedo factor but, like eq. 11, assumes
+    /// σt constant over the gather sphere, so dense tissue lights thin neighbours.
     Albedo,
-    /// `Σ p·ΔΦ/(4/3 π r³)` exactly as eq. 11; too bright by `1/Λ`.
+    /// `Σ p·ΔΦ/(4/3 π r³)` exactly as eq. 11 ("σs cancels"): too bright by `1/Λ` and biased
+    /// at density edges.
     Thesis,
 }
 
@@ -134,7 +143,7 @@ impl Default for IntegratorParams {
             free_path: FreePath::Delta,
             shadow: ShadowEstimator::March,
             quadrature: Quadrature::Exact,
-            estimate: Estimate::Albedo,
+            estimate: Estimate::Fluence,
             termination: 1e-3,
             shadow_cache: 0,
             ms_cache: 0,
