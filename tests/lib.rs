@@ -1,1 +1,61 @@
+//! Helpers for the end-to-end tests: locating the `sweep` binary, the workspace, and data.
 
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The workspace root.
+pub fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tests/ has a parent").to_path_buf()
+}
+
+/// The `sweep` binary built by this `cargo test` run (same profile as the tests), or
+/// `$VOLPHOT_SWEEP_BIN`.
+pub fn sweep_bin() -> PathBuf {
+    if let Some(p) = std::env::var_os("VOLPHOT_SWEEP_BIN") {
+        return PathBuf::from(p);
+    }
+    // target/<profile>/deps/<test> → target/<profile>/sweep
+    let exe = std::env::current_exe().expect("test executable path");
+    let dir = exe.parent().and_then(Path::parent).expect("target/<profile>");
+    let bin = dir.join("sweep");
+    assert!(
+        bin.is_file(),
+        "{} not found: build it with `cargo build -p volphot-sweep` (cargo test --workspace builds it) or set VOLPHOT_SWEEP_BIN",
+        bin.display()
+    );
+    bin
+}
+
+/// A `sweep` command run from the workspace root, with the data search path set.
+pub fn sweep() -> Command {
+    let mut c = Command::new(sweep_bin());
+    c.current_dir(workspace());
+    c
+}
+
+/// Runs and returns the output, panicking with both streams when the exit status differs.
+pub fn run_ok(cmd: &mut Command) -> Output {
+    let out = cmd.output().expect("sweep runs");
+    assert!(
+        out.status.success(),
+        "{cmd:?} failed ({}):\nstdout:\n{}\nstderr:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// The folder that holds the real datasets, if any (`$VOLPHOT_DATA`, `./data`,
+/// `../shared/data` relative to the workspace).
+pub fn data_dir() -> Option<PathBuf> {
+    let mut candidates: Vec<PathBuf> = std::env::var_os("VOLPHOT_DATA").map(|v| std::env::split_paths(&v).collect()).unwrap_or_default();
+    candidates.push(workspace().join("data"));
+    candidates.push(workspace().join("../shared/data"));
+    candidates.into_iter().find(|d| d.join("engine_256x256x128_uint8.raw").is_file())
+}
+
+/// Whether tests that need real data must run (CI may not skip them silently).
+pub fn real_data_required() -> bool {
+    std::env::var("CI").map(|v| v == "true" || v == "1").unwrap_or(false)
+}

@@ -35,8 +35,9 @@ use crate::film::{Film, Layer};
 use crate::geometry::{Aabb, Ray};
 use crate::light::Light;
 use crate::medium::Medium;
-use crate::photon_map::{GatherVariant, Gathered, PhotonMap};
+use crate::photon_map::{GatherScratch, GatherVariant, Gathered, PhotonMap};
 use crate::rng::{Domain, Rng};
+use crate::sampling::Phase;
 use crate::scene::Scene;
 use crate::settings::{Estimate, IntegratorParams, Quadrature, ShadowEstimator};
 
@@ -66,7 +67,7 @@ pub struct MarchStats {
 /// layers are identical.
 #[derive(Debug, Clone)]
 pub struct MarchOutput {
-    /// One film per [`GatherVariant`] (one film when `multiple` is off).
+    /// One film per [`MsVariant`] (one film when `multiple` is off).
     pub films: Vec<Film>,
     /// Counters.
     pub stats: MarchStats,
@@ -206,9 +207,8 @@ impl ScatterCache {
     fn lookup(
         &self,
         map: &PhotonMap,
-        variants: &[GatherVariant],
-        gathered: Gathered,
-        medium: &Medium,
+        gather: &[GatherVariant],
+        phase: Phase,
         p: Vec3,
         out: &mut [Vec3],
     ) {
@@ -219,13 +219,13 @@ impl ScatterCache {
             }
             let values = self.nodes[idx].get_or_init(|| {
                 self.computed.fetch_add(1, Ordering::Relaxed);
-                let mut v = vec![Vec3::ZERO; variants.len()];
+                let mut v = vec![Vec3::ZERO; gather.len()];
                 map.estimates(
                     self.lattice.position(idx),
                     Vec3::Z,
-                    variants,
-                    medium.phase(),
-                    gathered,
+                    phase,
+                    gather,
+                    &mut GatherScratch::default(),
                     &mut v,
                 );
                 v.into_boxed_slice()
@@ -237,16 +237,37 @@ impl ScatterCache {
     }
 }
 
+/// One multiple-scattering image rendered from a shared march: which photon map, and the
+/// radiance-estimate parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MsVariant {
+    /// Index into the photon maps passed to [`render_march`].
+    pub map: usize,
+    /// Photons per estimate.
+    pub nused: u32,
+    /// Largest gather radius.
+    pub maxdist: f32,
+    /// Estimate form.
+    pub estimate: Estimate,
+}
+
+/// The variants that share one photon map, and thus one k-NN query per sample.
+struct MapGroup<'a> {
+    map: &'a PhotonMap,
+    /// Indices into the variant list (and output films).
+    variants: Vec<usize>,
+    /// The gathers to run, aligned with `variants`.
+    gather: Vec<GatherVariant>,
+    cache: Option<ScatterCache>,
+}
+
 struct Marcher<'a> {
     medium: &'a Medium,
     lights: &'a [Light],
     settings: &'a IntegratorParams,
-    map: Option<&'a PhotonMap>,
-    variants: &'a [GatherVariant],
+    variants: &'a [MsVariant],
+    groups: Vec<MapGroup<'a>>,
     shadow_caches: Option<Vec<TransmittanceCache>>,
-    scatter_cache: Option<ScatterCache>,
-    /// What each gather sums.
-    gathered: Gathered,
 }
 
 #[derive(Default)]
@@ -261,7 +282,8 @@ struct Accumulator {
     single: Vec3,
     emission: Vec3,
     multiple: Vec<Vec3>,
-    scratch: Vec<Vec3>,
+    estimates: Vec<Vec3>,
+    gather: GatherScratch,
     counters: RowCounters,
 }
 
@@ -354,38 +376,38 @@ impl Marcher<'_> {
                 }
                 acc.single += self.medium.albedo() * sigma_t * direct * weight;
             }
-            if s.multiple
-                && let Some(map) = self.map
-            {
-                match &self.scatter_cache {
-                    Some(cache) => cache.lookup(
-                        map,
-                        self.variants,
-                        self.gathered,
-                        self.medium,
-                        x,
-                        &mut acc.scratch,
-                    ),
-                    None => {
-                        acc.counters.gathers += 1;
-                        map.estimates(
-                            x,
-                            wo,
-                            self.variants,
+            if s.multiple {
+                for group in &self.groups {
+                    let estimates = &mut acc.estimates[..group.gather.len()];
+                    match &group.cache {
+                        Some(cache) => cache.lookup(
+                            group.map,
+                            &group.gather,
                             self.medium.phase(),
-                            self.gathered,
-                            &mut acc.scratch,
-                        );
+                            x,
+                            estimates,
+                        ),
+                        None => {
+                            acc.counters.gathers += 1;
+                            group.map.estimates(
+                                x,
+                                wo,
+                                self.medium.phase(),
+                                &group.gather,
+                                &mut acc.gather,
+                                estimates,
+                            );
+                        }
                     }
-                }
-                // Source term per unit length from the gathered density (see `Estimate`).
-                let factor = match s.estimate {
-                    Estimate::Fluence => self.medium.albedo() * sigma_t,
-                    Estimate::Albedo => self.medium.albedo(),
-                    Estimate::Thesis => Vec3::ONE,
-                };
-                for (m, e) in acc.multiple.iter_mut().zip(acc.scratch.iter()) {
-                    *m += factor * *e * weight;
+                    for (&vi, e) in group.variants.iter().zip(estimates.iter()) {
+                        // Source term per unit length from the gathered density (`Estimate`).
+                        let factor = match self.variants[vi].estimate {
+                            Estimate::Fluence => self.medium.albedo() * sigma_t,
+                            Estimate::Albedo => self.medium.albedo(),
+                            Estimate::Thesis => Vec3::ONE,
+                        };
+                        acc.multiple[vi] += factor * *e * weight;
+                    }
                 }
             }
             if s.emission {
@@ -401,33 +423,42 @@ impl Marcher<'_> {
     }
 }
 
-/// Renders a scene with the ray-marching integrator. `map` is required when
-/// `multiple = true`; `variants` lists the `(nused, maxdist)` pairs to produce (empty means
-/// the scene's own). `progress` is called with the number of rows finished.
+/// Renders a scene with the ray-marching integrator.
+///
+/// `maps` are photon maps of this scene (e.g. with different photon counts or free-path
+/// rules); `variants` lists the multiple-scattering images to produce from one march, each
+/// naming its map and estimate parameters (empty means the scene's own settings on
+/// `maps[0]`). Variants on the same map share one k-NN query per sample; all share the
+/// eye rays, the single-scattering and the emission layers. `progress` is called with the
+/// number of rows finished.
 pub fn render_march(
     scene: &Scene,
-    map: Option<&PhotonMap>,
-    variants: &[GatherVariant],
+    maps: &[&PhotonMap],
+    variants: &[MsVariant],
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<MarchOutput> {
     let start = Instant::now();
     let settings = scene.integrator();
     let medium = scene.medium();
-    let own = [GatherVariant {
+    let own = [MsVariant {
+        map: 0,
         nused: settings.nused,
         maxdist: settings.maxdist,
+        estimate: settings.estimate,
     }];
-    let variants: &[GatherVariant] = if !settings.multiple {
+    let variants: &[MsVariant] = if !settings.multiple {
         &[]
     } else if variants.is_empty() {
         &own
     } else {
         variants
     };
-    if settings.multiple && map.is_none() {
-        return Err(Error::Render(
-            "multiple scattering needs a photon map (build one with PhotonMap::build)".into(),
-        ));
+    if let Some(v) = variants.iter().find(|v| v.map >= maps.len()) {
+        return Err(Error::Render(format!(
+            "multiple scattering variant uses photon map {} but {} map(s) were given (build one with build_photon_map)",
+            v.map,
+            maps.len()
+        )));
     }
     if settings.ms_cache > 0 && settings.multiple && !medium.phase().is_isotropic() {
         return Err(Error::parameter(
@@ -437,12 +468,37 @@ pub fn render_march(
         ));
     }
     let bounds = medium.bounds();
+    let mut groups: Vec<MapGroup> = Vec::new();
+    for (vi, v) in variants.iter().enumerate() {
+        let gather = GatherVariant {
+            nused: v.nused,
+            maxdist: v.maxdist,
+            gathered: match v.estimate {
+                Estimate::Fluence => Gathered::Fluence,
+                Estimate::Albedo | Estimate::Thesis => Gathered::Flux,
+            },
+        };
+        match groups.iter_mut().find(|g| std::ptr::eq(g.map, maps[v.map])) {
+            Some(g) => {
+                g.variants.push(vi);
+                g.gather.push(gather);
+            }
+            None => groups.push(MapGroup {
+                map: maps[v.map],
+                variants: vec![vi],
+                gather: vec![gather],
+                cache: (settings.ms_cache > 0)
+                    .then(|| ScatterCache::new(bounds, settings.ms_cache)),
+            }),
+        }
+    }
+    let max_group = groups.iter().map(|g| g.gather.len()).max().unwrap_or(0);
     let marcher = Marcher {
         medium,
         lights: scene.lights(),
         settings,
-        map,
         variants,
+        groups,
         shadow_caches: (settings.shadow_cache > 0 && settings.single).then(|| {
             scene
                 .lights()
@@ -450,12 +506,6 @@ pub fn render_march(
                 .map(|_| TransmittanceCache::new(bounds, settings.shadow_cache))
                 .collect()
         }),
-        scatter_cache: (settings.ms_cache > 0 && settings.multiple)
-            .then(|| ScatterCache::new(bounds, settings.ms_cache)),
-        gathered: match settings.estimate {
-            Estimate::Fluence => Gathered::Fluence,
-            Estimate::Albedo | Estimate::Thesis => Gathered::Flux,
-        },
     };
     let camera = scene.camera();
     let (width, height) = (camera.width() as usize, camera.height() as usize);
@@ -475,7 +525,8 @@ pub fn render_march(
                 single: Vec3::ZERO,
                 emission: Vec3::ZERO,
                 multiple: vec![Vec3::ZERO; variants.len()],
-                scratch: vec![Vec3::ZERO; variants.len()],
+                estimates: vec![Vec3::ZERO; max_group],
+                gather: GatherScratch::default(),
                 counters: RowCounters::default(),
             };
             let inv = 1.0 / spp as f32;
@@ -535,10 +586,11 @@ pub fn render_march(
         .map(|c| c.iter().map(|c| c.computed.load(Ordering::Relaxed)).sum())
         .unwrap_or(0);
     stats.ms_cache_nodes = marcher
-        .scatter_cache
-        .as_ref()
+        .groups
+        .iter()
+        .filter_map(|g| g.cache.as_ref())
         .map(|c| c.computed.load(Ordering::Relaxed))
-        .unwrap_or(0);
+        .sum();
     stats.seconds = start.elapsed().as_secs_f64();
     Ok(MarchOutput { films, stats })
 }

@@ -18,9 +18,9 @@
 //!                       direction: Vec3::Z, power: Vec3::splat(0.001), sigma_t: 1.0 })
 //!     .collect();
 //! let map = PhotonMap::new(photons, PhotonStats::default());
-//! let v = [GatherVariant { nused: 8, maxdist: 0.5 }];
+//! let v = [GatherVariant { nused: 8, maxdist: 0.5, gathered: Gathered::Flux }];
 //! let mut out = [Vec3::ZERO];
-//! map.estimates(Vec3::splat(0.45), Vec3::X, &v, Phase::ISOTROPIC, Gathered::Flux, &mut out);
+//! map.estimates(Vec3::splat(0.45), Vec3::X, Phase::ISOTROPIC, &v, &mut Default::default(), &mut out);
 //! assert!(out[0].x > 0.0);
 //! ```
 
@@ -44,13 +44,24 @@ pub enum Gathered {
     Fluence,
 }
 
-/// One `(nused, maxdist)` pair served by a shared gather.
+/// One `(nused, maxdist, what)` estimate served by a shared gather.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GatherVariant {
     /// Photons used per estimate.
     pub nused: u32,
     /// Largest gather radius.
     pub maxdist: f32,
+    /// What is summed.
+    pub gathered: Gathered,
+}
+
+/// Reusable buffers for [`PhotonMap::estimates`], one per worker, so the hot loop does not
+/// allocate.
+#[derive(Debug, Default, Clone)]
+pub struct GatherScratch {
+    hits: Vec<(f32, u32)>,
+    flux: Vec<Vec3>,
+    fluence: Vec<Vec3>,
 }
 
 /// A kd-tree over stored photons.
@@ -113,20 +124,28 @@ impl PhotonMap {
     /// The up to `k` nearest photons within `maxdist` of `p`, sorted by distance, as
     /// `(squared distance, photon index)`.
     pub fn gather(&self, p: Vec3, k: usize, maxdist: f32) -> Vec<(f32, u32)> {
+        let mut hits = Vec::new();
+        self.gather_into(p, k, maxdist, &mut hits);
+        hits
+    }
+
+    fn gather_into(&self, p: Vec3, k: usize, maxdist: f32, hits: &mut Vec<(f32, u32)>) {
+        hits.clear();
         let Some(k) = NonZeroUsize::new(k) else {
-            return Vec::new();
+            return;
         };
         if self.photons.is_empty() {
-            return Vec::new();
+            return;
         }
-        self.tree
-            .query(&p.to_array())
-            .nearest_n::<SquaredEuclidean<f32>>(k)
-            .within(maxdist * maxdist)
-            .execute()
-            .into_iter()
-            .map(|h| (h.distance, h.item))
-            .collect()
+        hits.extend(
+            self.tree
+                .query(&p.to_array())
+                .nearest_n::<SquaredEuclidean<f32>>(k)
+                .within(maxdist * maxdist)
+                .execute()
+                .into_iter()
+                .map(|h| (h.distance, h.item)),
+        );
     }
 
     /// Radiance estimates (eq. 11) at `p` towards propagation direction `wo` for every
@@ -135,63 +154,85 @@ impl PhotonMap {
         &self,
         p: Vec3,
         wo: Vec3,
-        variants: &[GatherVariant],
         phase: Phase,
-        gathered: Gathered,
+        variants: &[GatherVariant],
+        scratch: &mut GatherScratch,
         out: &mut [Vec3],
     ) {
         debug_assert_eq!(variants.len(), out.len());
         let k = variants.iter().map(|v| v.nused).max().unwrap_or(0) as usize;
         let r_max = variants.iter().map(|v| v.maxdist).fold(0.0f32, f32::max);
-        let hits = self.gather(p, k, r_max);
-        // Prefix sums of p·ΔΦ in distance order.
-        let mut prefix = Vec::with_capacity(hits.len() + 1);
-        prefix.push(Vec3::ZERO);
-        let mut acc = Vec3::ZERO;
-        for &(_, i) in &hits {
+        let GatherScratch {
+            hits,
+            flux,
+            fluence,
+        } = scratch;
+        self.gather_into(p, k, r_max, hits);
+        let need_flux = variants.iter().any(|v| v.gathered == Gathered::Flux);
+        let need_fluence = variants.iter().any(|v| v.gathered == Gathered::Fluence);
+        // Prefix sums of p·ΔΦ (and of p·ΔΦ/σt) in distance order.
+        flux.clear();
+        fluence.clear();
+        let (mut acc_flux, mut acc_fluence) = (Vec3::ZERO, Vec3::ZERO);
+        if need_flux {
+            flux.push(Vec3::ZERO);
+        }
+        if need_fluence {
+            fluence.push(Vec3::ZERO);
+        }
+        for &(_, i) in hits.iter() {
             let photon = &self.photons[i as usize];
-            let weight = match gathered {
-                Gathered::Flux => 1.0,
-                Gathered::Fluence if photon.sigma_t > 0.0 => 1.0 / photon.sigma_t,
-                Gathered::Fluence => 0.0,
-            };
-            acc += photon.power * (weight * phase.eval(photon.direction, wo));
-            prefix.push(acc);
+            let contribution = photon.power * phase.eval(photon.direction, wo);
+            if need_flux {
+                acc_flux += contribution;
+                flux.push(acc_flux);
+            }
+            if need_fluence {
+                if photon.sigma_t > 0.0 {
+                    acc_fluence += contribution / photon.sigma_t;
+                }
+                fluence.push(acc_fluence);
+            }
         }
         for (v, o) in variants.iter().zip(out.iter_mut()) {
             let r2_max = v.maxdist * v.maxdist;
             // Photons of this variant: the prefix within its radius, at most nused.
             let within = hits.partition_point(|&(d2, _)| d2 <= r2_max);
             let n = within.min(v.nused as usize);
-            if n == 0 {
-                *o = Vec3::ZERO;
-                continue;
-            }
             let r = if n == v.nused as usize {
                 hits[n - 1].0.sqrt()
             } else {
                 v.maxdist
             };
-            // A zero radius (coincident photons) would divide by zero; the estimate is then
-            // undefined and left black rather than infinite.
-            if r <= 0.0 {
+            // No photons, or coincident photons (zero radius): the estimate is left black
+            // rather than undefined.
+            if n == 0 || r <= 0.0 {
                 *o = Vec3::ZERO;
                 continue;
             }
             let volume = 4.0 / 3.0 * std::f32::consts::PI * r * r * r;
-            *o = prefix[n] / volume;
+            let sum = match v.gathered {
+                Gathered::Flux => flux[n],
+                Gathered::Fluence => fluence[n],
+            };
+            *o = sum / volume;
         }
     }
 
     /// A single flux-density estimate (eq. 11).
     pub fn estimate(&self, p: Vec3, wo: Vec3, nused: u32, maxdist: f32, phase: Phase) -> Vec3 {
         let mut out = [Vec3::ZERO];
+        let variant = GatherVariant {
+            nused,
+            maxdist,
+            gathered: Gathered::Flux,
+        };
         self.estimates(
             p,
             wo,
-            &[GatherVariant { nused, maxdist }],
             phase,
-            Gathered::Flux,
+            &[variant],
+            &mut GatherScratch::default(),
             &mut out,
         );
         out[0]
@@ -239,23 +280,26 @@ mod tests {
             GatherVariant {
                 nused: 10,
                 maxdist: 0.5,
+                gathered: Gathered::Flux,
             },
             GatherVariant {
                 nused: 150,
                 maxdist: 0.5,
+                gathered: Gathered::Flux,
             },
             GatherVariant {
                 nused: 150,
                 maxdist: 0.08,
+                gathered: Gathered::Flux,
             },
         ];
         let mut shared = [Vec3::ZERO; 3];
         map.estimates(
             p,
             Vec3::X,
-            &variants,
             Phase::ISOTROPIC,
-            Gathered::Flux,
+            &variants,
+            &mut GatherScratch::default(),
             &mut shared,
         );
         for (v, s) in variants.iter().zip(shared) {

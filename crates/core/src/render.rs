@@ -9,7 +9,7 @@ use crate::error::Result;
 use crate::film::Film;
 use crate::integrator::{MarchStats, render_march};
 use crate::photon::{PhotonStats, TraceSettings, trace};
-use crate::photon_map::{GatherVariant, PhotonMap};
+use crate::photon_map::PhotonMap;
 use crate::scene::{Scene, SceneParams};
 use crate::settings::Method;
 use crate::sigma::SigmaReport;
@@ -105,11 +105,8 @@ pub fn render(scene: &Scene, progress: &(dyn Fn(u64) + Sync)) -> Result<RenderOu
             } else {
                 None
             };
-            let variants = [GatherVariant {
-                nused: s.nused,
-                maxdist: s.maxdist,
-            }];
-            let out = render_march(scene, map.as_ref(), &variants, progress)?;
+            let maps: Vec<&PhotonMap> = map.iter().collect();
+            let out = render_march(scene, &maps, &[], progress)?;
             timings.render = out.stats.seconds;
             let film = out.films.into_iter().next().expect("one variant, one film");
             (film, map.map(|m| m.stats().clone()), Some(out.stats), None)

@@ -266,6 +266,34 @@ pub fn locate(src: &str, key: &str) -> Option<(usize, usize)> {
     best.map(|b| line_col(src, b))
 }
 
+/// The dotted key path whose key or value covers byte `offset` of `src` (the inverse of
+/// [`locate`]), e.g. to name the key behind a type error in generated TOML.
+pub fn key_at(src: &str, offset: usize) -> Option<String> {
+    use toml::de::{DeTable, DeValue};
+    fn walk(table: &DeTable<'_>, offset: usize, prefix: &str) -> Option<String> {
+        for (k, v) in table.iter() {
+            let key = if prefix.is_empty() {
+                k.get_ref().to_string()
+            } else {
+                format!("{prefix}.{}", k.get_ref())
+            };
+            let (ks, vs) = (k.span(), v.span());
+            let inside = |r: &std::ops::Range<usize>| r.start <= offset && offset < r.end.max(r.start + 1);
+            if let DeValue::Table(t) = v.get_ref()
+                && let Some(found) = walk(t, offset, &key)
+            {
+                return Some(found);
+            }
+            if inside(&ks) || inside(&vs) {
+                return Some(key);
+            }
+        }
+        None
+    }
+    let root = DeTable::parse(src).ok()?;
+    walk(root.get_ref(), offset, "")
+}
+
 /// Turns a keyed [`Error::Parameter`] into an [`Error::Scene`] at the key's position.
 pub fn locate_error(err: Error, src: &str, file: &Path) -> Error {
     match &err {

@@ -63,7 +63,7 @@ fn single_scattering_in_homogeneous_medium_matches_closed_form() {
         let scene = common::scene(
             &HOMOGENEOUS.replace("spp = 8", &format!("spp = 512\nshadow = \"{shadow}\"")),
         );
-        let out = render_march(&scene, None, &[], &|_| {}).unwrap();
+        let out = render_march(&scene, &[], &[], &|_| {}).unwrap();
         let got = out.films[0].layer(Layer::Single)[0].x as f64;
         let rel = (got - expected).abs() / expected;
         assert!(
@@ -338,7 +338,7 @@ fn photon_integrator_agrees_with_reference_and_converges() {
             ..base.integrator().clone()
         })
         .unwrap();
-    let out = render_march(&scene, None, &[], &|_| {}).unwrap();
+    let out = render_march(&scene, &[], &[], &|_| {}).unwrap();
     let single = out.films[0].layer(Layer::Single);
     let mean_err = (mean_rgb(single) / mean_rgb(ref_single) - 1.0).abs();
     assert!(
@@ -364,7 +364,7 @@ fn photon_integrator_agrees_with_reference_and_converges() {
             })
             .unwrap();
         let map = build_photon_map(&scene);
-        let out = render_march(&scene, Some(&map), &[], &|_| {}).unwrap();
+        let out = render_march(&scene, &[&map], &[], &|_| {}).unwrap();
         let multiple = out.films[0].layer(Layer::Multiple);
         let rel = common::relative_rmse(multiple, ref_multiple);
         // The reference's own noise is part of the difference; remove it.
@@ -405,7 +405,7 @@ fn same_seed_gives_bit_identical_images_with_one_and_two_threads() {
             .unwrap()
             .install(|| {
                 let map = build_photon_map(&scene);
-                let march = render_march(&scene, Some(&map), &[], &|_| {}).unwrap();
+                let march = render_march(&scene, &[&map], &[], &|_| {}).unwrap();
                 let (reference, _) = render_reference(&scene, 4, &|_| {}).unwrap();
                 (map.photons().to_vec(), march.films[0].clone(), reference)
             })

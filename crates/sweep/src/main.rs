@@ -1,1 +1,30 @@
-fn main() {}
+//! `sweep`: parameter studies of volume photon mapping.
+//!
+//! See `sweep --help` and the README for the experiment format.
+#![warn(missing_docs)]
+
+mod cells;
+mod cli;
+mod commands;
+mod disco;
+mod experiment;
+mod figures;
+mod metrics;
+mod plots;
+mod progress;
+mod report;
+mod runner;
+mod slurm;
+
+use clap::Parser;
+
+fn main() -> std::process::ExitCode {
+    let cli = cli::Cli::parse_from(cli::with_default_subcommand(std::env::args_os().collect()));
+    match commands::dispatch(cli) {
+        Ok(code) => code,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}

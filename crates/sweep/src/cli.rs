@@ -1,0 +1,301 @@
+//! Command-line interface (clap derive).
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Parameter studies of volume photon mapping: render TOML grids of scenes and report what
+/// changed and by how much.
+#[derive(Debug, Parser)]
+#[command(
+    name = "sweep",
+    version,
+    override_usage = "sweep [OPTIONS] <EXPERIMENT.toml>   (same as `sweep run`)\n       sweep <COMMAND>",
+    after_help = "Examples:\n  sweep experiments/artifacts.toml          run a study (same as `sweep run …`)\n  sweep render experiments/scenes/foot.toml -o out/\n  sweep datasets"
+)]
+pub struct Cli {
+    /// Subcommand; without one, `sweep FILE.toml` runs the experiment.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// `sweep FILE.toml …` means `sweep run FILE.toml …`: inserts `run` when the first
+/// positional argument is not a subcommand.
+pub fn with_default_subcommand(mut args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    use clap::CommandFactory;
+    let command = Cli::command();
+    let names: Vec<String> = command
+        .get_subcommands()
+        .flat_map(|c| std::iter::once(c.get_name().to_string()).chain(c.get_all_aliases().map(str::to_string)))
+        .chain(["help".to_string()])
+        .collect();
+    let first = args.iter().skip(1).position(|a| !a.to_string_lossy().starts_with('-'));
+    let top_level_flag = args.iter().skip(1).any(|a| {
+        let a = a.to_string_lossy();
+        a == "-h" || a == "--help" || a == "-V" || a == "--version"
+    });
+    if let Some(i) = first
+        && !names.contains(&args[i + 1].to_string_lossy().into_owned())
+        && !(top_level_flag && i > 0)
+    {
+        args.insert(1, "run".into());
+    }
+    args
+}
+
+/// The verbs.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// List the registered datasets and where they were found on the search path.
+    #[command(
+        after_help = "Example:\n  sweep datasets --verify\n\nSearch path: $VOLPHOT_DATA (colon-separated), ./data, ../shared/data."
+    )]
+    Datasets(DatasetsArgs),
+    /// Render one scene file to EXR (all layers), PNG, PFM and a JSON sidecar.
+    #[command(
+        after_help = "Example:\n  sweep render experiments/scenes/foot.toml -o out/foot --threads 2 --integrator reference --spp 256"
+    )]
+    Render(RenderArgs),
+    /// Print an experiment's cells and their estimated cost without rendering.
+    #[command(after_help = "Example:\n  sweep plan experiments/artifacts.toml --paper")]
+    Plan(PlanArgs),
+    /// Run an experiment: render every cell, compute metrics, write CSV, plots and a report.
+    #[command(
+        after_help = "Examples:\n  sweep run experiments/artifacts.toml\n  sweep run experiments/artifacts.toml --cells 3,7-9 --output reports/artifacts\n  sweep run experiments/artifacts.toml --backend slurm --partition short --time 00:30:00 --mem 4G"
+    )]
+    Run(RunArgs),
+    /// Regenerate figures and the report of an output folder from its CSV and images.
+    #[command(after_help = "Example:\n  sweep report reports/artifacts")]
+    Report(ReportArgs),
+    /// Show which cells of an output folder are done, running, failed or pending.
+    #[command(after_help = "Example:\n  sweep status reports/artifacts")]
+    Status(StatusArgs),
+    /// Benchmark the thesis's headline frame (foot, 512², 40 000 photons, nused 150).
+    #[command(
+        after_help = "Example:\n  sweep bench --threads 2\n  sweep bench --quick          (a smaller frame on a phantom)"
+    )]
+    Bench(BenchArgs),
+}
+
+/// `sweep datasets`.
+#[derive(Debug, Args)]
+pub struct DatasetsArgs {
+    /// Verify each file's sha256 (cached per file).
+    #[arg(long)]
+    pub verify: bool,
+}
+
+/// Renderer choice on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum IntegratorChoice {
+    /// Volume photon mapping with ray marching.
+    Photon,
+    /// The unbiased reference path tracer.
+    Reference,
+}
+
+/// `sweep render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// Scene file (TOML).
+    pub scene: PathBuf,
+    /// Output folder.
+    #[arg(short, long, default_value = "out")]
+    pub output: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Random seed (overrides the scene).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Samples per pixel (eye rays for `photon`, paths for `reference`).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Renderer (overrides the scene's `integrator.method`).
+    #[arg(long, value_enum)]
+    pub integrator: Option<IntegratorChoice>,
+    /// Image size `WIDTHxHEIGHT` (overrides the scene's camera resolution).
+    #[arg(long, value_parser = parse_resolution)]
+    pub resolution: Option<[u32; 2]>,
+    /// Hide the progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Parses `512x512`.
+pub fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{s}`: expected WIDTHxHEIGHT, e.g. 512x512"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|n| (1..=16384).contains(n))
+            .ok_or_else(|| format!("`{s}`: expected WIDTHxHEIGHT with integers in 1..=16384"))
+    };
+    Ok([parse(w)?, parse(h)?])
+}
+
+/// Quality presets that scale resolution and photon counts without editing the file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum Quality {
+    /// A minute-scale look.
+    Quick,
+    /// The experiment file's own settings.
+    #[default]
+    Default,
+    /// Thesis resolution (512²) and the full grid.
+    Paper,
+}
+
+/// Quality flags shared by `plan` and `run`.
+#[derive(Debug, Clone, Args)]
+pub struct QualityArgs {
+    /// Minute-scale preview: lower resolution and fewer photons.
+    #[arg(long, conflicts_with = "paper")]
+    pub quick: bool,
+    /// Thesis resolution (512×512) and the paper grid.
+    #[arg(long)]
+    pub paper: bool,
+}
+
+impl QualityArgs {
+    /// The selected preset.
+    pub fn quality(&self) -> Quality {
+        if self.quick {
+            Quality::Quick
+        } else if self.paper {
+            Quality::Paper
+        } else {
+            Quality::Default
+        }
+    }
+}
+
+/// `sweep plan`.
+#[derive(Debug, Args)]
+pub struct PlanArgs {
+    /// Experiment file (TOML).
+    pub experiment: PathBuf,
+    #[command(flatten)]
+    pub quality: QualityArgs,
+    /// Also print the sbatch lines a Slurm run would submit.
+    #[arg(long)]
+    pub slurm: bool,
+}
+
+/// Where cells are rendered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum Backend {
+    /// On this machine.
+    #[default]
+    Local,
+    /// As a Slurm job array plus a collect job.
+    Slurm,
+}
+
+/// Slurm options of `sweep run --backend slurm`.
+#[derive(Debug, Clone, Args, Default)]
+pub struct SlurmArgs {
+    /// Partition (`sbatch --partition`).
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// Time limit per task (`sbatch --time`), e.g. 00:30:00.
+    #[arg(long)]
+    pub time: Option<String>,
+    /// Memory per task (`sbatch --mem`), e.g. 4G.
+    #[arg(long)]
+    pub mem: Option<String>,
+    /// CPUs per task (`sbatch --cpus-per-task`).
+    #[arg(long)]
+    pub cpus_per_task: Option<u32>,
+    /// At most this many array tasks at once (`--array=0-N%K`).
+    #[arg(long)]
+    pub max_concurrent: Option<u32>,
+    /// Extra argument passed to every sbatch call (repeatable).
+    #[arg(long = "sbatch-arg", allow_hyphen_values = true)]
+    pub sbatch_args: Vec<String>,
+    /// Cells per array task (default: grouped by shared photon map, and so that the array
+    /// fits the cluster's MaxArraySize).
+    #[arg(long)]
+    pub cells_per_task: Option<usize>,
+    /// Print the sbatch lines and write the scripts without submitting.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Block with a progress bar until the collect job has finished.
+    #[arg(long)]
+    pub wait: bool,
+}
+
+/// `sweep run` (also `sweep FILE.toml`).
+#[derive(Debug, Clone, Args)]
+pub struct RunArgs {
+    /// Experiment file (TOML).
+    pub experiment: PathBuf,
+    #[command(flatten)]
+    pub quality: QualityArgs,
+    /// Output folder (default: reports/<experiment name>/).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Render only these cells, e.g. `3,7-9` (for outside schedulers).
+    #[arg(long, conflicts_with = "shard")]
+    pub cells: Option<String>,
+    /// Render only shard i of n (0-based), e.g. `2/8`.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// Cells rendered at once (each uses all threads; default 1).
+    #[arg(long, default_value_t = 1)]
+    pub jobs: usize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Accept a grid larger than the experiment's `max_cells` limit.
+    #[arg(long, short)]
+    pub yes: bool,
+    /// Hide progress bars.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// Skip building the report after rendering (outside schedulers collect later).
+    #[arg(long)]
+    pub no_report: bool,
+    /// Where cells are rendered.
+    #[arg(long, value_enum, default_value_t = Backend::Local)]
+    pub backend: Backend,
+    #[command(flatten)]
+    pub slurm: SlurmArgs,
+}
+
+/// `sweep report`.
+#[derive(Debug, Args)]
+pub struct ReportArgs {
+    /// Output folder of a run.
+    pub dir: PathBuf,
+}
+
+/// `sweep status`.
+#[derive(Debug, Args)]
+pub struct StatusArgs {
+    /// Output folder of a run.
+    pub dir: PathBuf,
+}
+
+/// `sweep bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// A small frame on the foot phantom instead of the real foot at 512².
+    #[arg(long)]
+    pub quick: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Scene to benchmark instead of the headline frame.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Skip the uncached run (which can take minutes).
+    #[arg(long)]
+    pub cached_only: bool,
+    /// Write the measurements as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}

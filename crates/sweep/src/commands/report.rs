@@ -1,0 +1,18 @@
+//! `sweep report`: regenerate CSV, figures and report from an output folder.
+
+use std::process::ExitCode;
+
+use anyhow::Result;
+
+use crate::cells::OutputDir;
+use crate::cli::ReportArgs;
+
+/// Rebuilds the report without rendering.
+pub fn run(args: &ReportArgs) -> Result<ExitCode> {
+    let out = OutputDir::new(&args.dir);
+    // Hold a shared lock: a full run writing this folder would conflict.
+    let _lock = crate::runner::lock_folder(&out, false)?;
+    let path = crate::report::build_report(&out)?;
+    eprintln!("report: {}", path.display());
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,32 @@
+//! The command line itself: help texts and argument errors.
+
+use std::process::Command;
+
+fn sweep() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_sweep"))
+}
+
+#[test]
+fn every_verb_has_help_with_an_example() {
+    for verb in ["datasets", "render", "plan", "run", "report", "status", "bench"] {
+        let out = sweep().args([verb, "--help"]).output().unwrap();
+        assert!(out.status.success(), "{verb} --help");
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.contains("Example"), "{verb} --help lacks an example:\n{text}");
+    }
+}
+
+#[test]
+fn bad_arguments_are_clear_errors() {
+    let out = sweep().args(["render", "missing.toml"]).output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("missing.toml"), "{err}");
+    let out = sweep().args(["render", "x.toml", "--resolution", "12xQ"]).output().unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("WIDTHxHEIGHT"));
+    // `sweep FILE.toml` is `sweep run FILE.toml`.
+    let out = sweep().args(["nope.toml", "--quick"]).output().unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("nope.toml"));
+}
