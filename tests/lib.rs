@@ -5,7 +5,10 @@ use std::process::{Command, Output};
 
 /// The workspace root.
 pub fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tests/ has a parent").to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ has a parent")
+        .to_path_buf()
 }
 
 /// The `sweep` binary built by this `cargo test` run (same profile as the tests), or
@@ -16,7 +19,10 @@ pub fn sweep_bin() -> PathBuf {
     }
     // target/<profile>/deps/<test> → target/<profile>/sweep
     let exe = std::env::current_exe().expect("test executable path");
-    let dir = exe.parent().and_then(Path::parent).expect("target/<profile>");
+    let dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .expect("target/<profile>");
     let bin = dir.join("sweep");
     assert!(
         bin.is_file(),
@@ -49,13 +55,19 @@ pub fn run_ok(cmd: &mut Command) -> Output {
 /// The folder that holds the real datasets, if any (`$VOLPHOT_DATA`, `./data`,
 /// `../shared/data` relative to the workspace).
 pub fn data_dir() -> Option<PathBuf> {
-    let mut candidates: Vec<PathBuf> = std::env::var_os("VOLPHOT_DATA").map(|v| std::env::split_paths(&v).collect()).unwrap_or_default();
+    let mut candidates: Vec<PathBuf> = std::env::var_os("VOLPHOT_DATA")
+        .map(|v| std::env::split_paths(&v).collect())
+        .unwrap_or_default();
     candidates.push(workspace().join("data"));
     candidates.push(workspace().join("../shared/data"));
-    candidates.into_iter().find(|d| d.join("engine_256x256x128_uint8.raw").is_file())
+    candidates
+        .into_iter()
+        .find(|d| d.join("engine_256x256x128_uint8.raw").is_file())
 }
 
 /// Whether tests that need real data must run (CI may not skip them silently).
 pub fn real_data_required() -> bool {
-    std::env::var("CI").map(|v| v == "true" || v == "1").unwrap_or(false)
+    std::env::var("CI")
+        .map(|v| v == "true" || v == "1")
+        .unwrap_or(false)
 }

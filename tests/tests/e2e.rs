@@ -38,18 +38,28 @@ kind = "reference"
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
     let mut r = csv::Reader::from_path(path).unwrap();
     let headers = r.headers().unwrap().iter().map(str::to_string).collect();
-    let rows = r.records().map(|rec| rec.unwrap().iter().map(str::to_string).collect()).collect();
+    let rows = r
+        .records()
+        .map(|rec| rec.unwrap().iter().map(str::to_string).collect())
+        .collect();
     (headers, rows)
 }
 
 fn column<'a>(headers: &[String], rows: &'a [Vec<String>], name: &str) -> Vec<&'a str> {
-    let i = headers.iter().position(|h| h == name).unwrap_or_else(|| panic!("no column {name} in {headers:?}"));
+    let i = headers
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("no column {name} in {headers:?}"));
     rows.iter().map(|r| r[i].as_str()).collect()
 }
 
 fn finished_cells(out: &Path) -> usize {
     std::fs::read_dir(out.join("cells"))
-        .map(|d| d.flatten().filter(|e| e.path().join("cell.json").is_file()).count())
+        .map(|d| {
+            d.flatten()
+                .filter(|e| e.path().join("cell.json").is_file())
+                .count()
+        })
         .unwrap_or(0)
 }
 
@@ -64,32 +74,73 @@ fn phantom_grid_runs_reports_and_resumes() {
 
     // CSV: stable columns with units, one finished row per cell, plausible values.
     let (headers, rows) = read_csv(&out.join("cells.csv"));
-    assert_eq!(&headers[..5], ["cell", "hash", "status", "sigma.t", "integrator.nused"]);
-    for h in ["time_render [s]", "nominal_mfp [% extent]", "empirical_mfp [% extent]", "rmse [W/(m2 sr)]", "flip [1]", "ssim [1]", "disco_energy [1]", "volume_sha256", "ms_share [1]"] {
+    assert_eq!(
+        &headers[..5],
+        ["cell", "hash", "status", "sigma.t", "integrator.nused"]
+    );
+    for h in [
+        "time_render [s]",
+        "nominal_mfp [% extent]",
+        "empirical_mfp [% extent]",
+        "rmse [W/(m2 sr)]",
+        "flip [1]",
+        "ssim [1]",
+        "disco_energy [1]",
+        "volume_sha256",
+        "ms_share [1]",
+    ] {
         assert!(headers.iter().any(|x| x == h), "missing column {h}");
     }
     assert_eq!(rows.len(), 4);
-    assert!(column(&headers, &rows, "status").iter().all(|s| *s == "done"));
+    assert!(
+        column(&headers, &rows, "status")
+            .iter()
+            .all(|s| *s == "done")
+    );
     // σt(d_min) = 20 in a unit box: mean free path 1/20 = 5 % of the extent.
-    let mfp: Vec<f64> = column(&headers, &rows, "nominal_mfp [% extent]").iter().map(|v| v.parse().unwrap()).collect();
-    let t: Vec<f64> = column(&headers, &rows, "sigma.t").iter().map(|v| v.parse().unwrap()).collect();
+    let mfp: Vec<f64> = column(&headers, &rows, "nominal_mfp [% extent]")
+        .iter()
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let t: Vec<f64> = column(&headers, &rows, "sigma.t")
+        .iter()
+        .map(|v| v.parse().unwrap())
+        .collect();
     for (m, t) in mfp.iter().zip(&t) {
         assert!((m - 100.0 / t).abs() < 1e-3, "{m} vs 100/{t}");
     }
-    for name in ["mean_multiple [W/(m2 sr)]", "rmse [W/(m2 sr)]", "flip [1]", "empirical_mfp [% extent]"] {
+    for name in [
+        "mean_multiple [W/(m2 sr)]",
+        "rmse [W/(m2 sr)]",
+        "flip [1]",
+        "empirical_mfp [% extent]",
+    ] {
         for v in column(&headers, &rows, name) {
             let v: f64 = v.parse().unwrap_or_else(|_| panic!("{name} = `{v}`"));
             assert!(v.is_finite() && v > 0.0, "{name} = {v}");
         }
     }
-    assert!(column(&headers, &rows, "volume").iter().all(|v| v.starts_with("phantom engine")));
+    assert!(
+        column(&headers, &rows, "volume")
+            .iter()
+            .all(|v| v.starts_with("phantom engine"))
+    );
 
     // Every promised file exists and decodes.
-    for f in ["report.md", "report.html", "cells.json", "plan.json", "experiment.toml"] {
+    for f in [
+        "report.md",
+        "report.html",
+        "cells.json",
+        "plan.json",
+        "experiment.toml",
+    ] {
         assert!(out.join(f).is_file(), "{f}");
     }
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
-    assert!(html.contains("data:image/png;base64,"), "self-contained report");
+    assert!(
+        html.contains("data:image/png;base64,"),
+        "self-contained report"
+    );
     for hash in column(&headers, &rows, "hash") {
         let dir = out.join("cells").join(hash);
         let film = volphot::film::Film::read_exr(&dir.join("film.exr")).unwrap();
@@ -110,9 +161,19 @@ fn phantom_grid_runs_reports_and_resumes() {
             assert!(std::fs::read_to_string(&entry).unwrap().contains("<svg"));
         }
     }
-    assert!(pngs >= 6, "contact sheets, plots and difference images: {pngs}");
-    let references: Vec<PathBuf> = walk(&out.join("references")).into_iter().filter(|p| p.ends_with("reference.exr")).collect();
-    assert_eq!(references.len(), 2, "one reference per σt (shared by the nused cells)");
+    assert!(
+        pngs >= 6,
+        "contact sheets, plots and difference images: {pngs}"
+    );
+    let references: Vec<PathBuf> = walk(&out.join("references"))
+        .into_iter()
+        .filter(|p| p.ends_with("reference.exr"))
+        .collect();
+    assert_eq!(
+        references.len(),
+        2,
+        "one reference per σt (shared by the nused cells)"
+    );
 
     // Rerunning renders nothing.
     let second = run_ok(sweep().arg(&exp).arg("--output").arg(&out));
@@ -167,12 +228,18 @@ fn killed_run_resumes_with_nothing_lost() {
     for e in std::fs::read_dir(out.join("cells")).unwrap().flatten() {
         let name = e.file_name().to_string_lossy().into_owned();
         if e.path().is_dir() && !name.starts_with('.') {
-            assert!(e.path().join("cell.json").is_file(), "half-written cell {name}");
+            assert!(
+                e.path().join("cell.json").is_file(),
+                "half-written cell {name}"
+            );
         }
     }
     let resumed = run_ok(sweep().arg(&exp).arg("--output").arg(&out));
     let stderr = String::from_utf8_lossy(&resumed.stderr);
-    assert!(stderr.contains(&format!("{before} already done, {} rendered", 8 - before)), "{stderr}");
+    assert!(
+        stderr.contains(&format!("{before} already done, {} rendered", 8 - before)),
+        "{stderr}"
+    );
     assert_eq!(finished_cells(&out), 8);
     let leftovers: Vec<String> = std::fs::read_dir(out.join("cells"))
         .unwrap()
@@ -180,7 +247,10 @@ fn killed_run_resumes_with_nothing_lost() {
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .filter(|n| n.contains(".tmp-"))
         .collect();
-    assert!(leftovers.is_empty(), "stale temporary folders: {leftovers:?}");
+    assert!(
+        leftovers.is_empty(),
+        "stale temporary folders: {leftovers:?}"
+    );
 }
 
 #[test]
@@ -191,7 +261,12 @@ fn a_second_run_on_the_same_folder_is_refused() {
     std::fs::create_dir_all(&out).unwrap();
     let lock = std::fs::File::create(out.join(".lock")).unwrap();
     lock.lock().unwrap();
-    let o = sweep().arg(&exp).arg("--output").arg(&out).output().unwrap();
+    let o = sweep()
+        .arg(&exp)
+        .arg("--output")
+        .arg(&out)
+        .output()
+        .unwrap();
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("being written by another sweep run"));
 }
@@ -201,11 +276,21 @@ fn experiment_errors_name_file_line_and_key() {
     let tmp = tempfile::tempdir().unwrap();
     let exp = tmp.path().join("bad.toml");
     let scene = workspace().join("experiments/scenes/phantom-engine.toml");
-    std::fs::write(&exp, format!("scene = \"{}\"\n[axes]\n\"integrator.nused\" = [50, -3]\n", scene.display())).unwrap();
+    std::fs::write(
+        &exp,
+        format!(
+            "scene = \"{}\"\n[axes]\n\"integrator.nused\" = [50, -3]\n",
+            scene.display()
+        ),
+    )
+    .unwrap();
     let o = sweep().arg("plan").arg(&exp).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("bad.toml:3:1") && err.contains("integrator.nused"), "{err}");
+    assert!(
+        err.contains("bad.toml:3:1") && err.contains("integrator.nused"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -218,14 +303,25 @@ fn render_writes_layers_png_pfm_and_sidecar() {
             .arg(&scene)
             .arg("-o")
             .arg(tmp.path())
-            .args(["--resolution", "32x24", "--threads", "1", "--seed", "5", "-q"]),
+            .args([
+                "--resolution",
+                "32x24",
+                "--threads",
+                "1",
+                "--seed",
+                "5",
+                "-q",
+            ]),
     );
     let film = volphot::film::Film::read_exr(&tmp.path().join("phantom-head.exr")).unwrap();
     assert_eq!((film.width(), film.height()), (32, 24));
     assert!(film.mean(volphot::film::Layer::Multiple) > 0.0);
     image::open(tmp.path().join("phantom-head.png")).unwrap();
     assert!(tmp.path().join("phantom-head.pfm").is_file());
-    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(tmp.path().join("phantom-head.json")).unwrap()).unwrap();
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(tmp.path().join("phantom-head.json")).unwrap(),
+    )
+    .unwrap();
     assert_eq!(json["volume"]["kind"], "phantom");
     assert_eq!(json["scene"]["integrator"]["seed"], 5);
     assert_eq!(json["threads"], 1);
@@ -237,7 +333,10 @@ fn render_writes_layers_png_pfm_and_sidecar() {
 #[test]
 fn real_dataset_grid_records_checksums() {
     let Some(data) = data_dir() else {
-        assert!(!real_data_required(), "CI=true but the real datasets are missing (set VOLPHOT_DATA)");
+        assert!(
+            !real_data_required(),
+            "CI=true but the real datasets are missing (set VOLPHOT_DATA)"
+        );
         eprintln!("skipping: real datasets not found (set VOLPHOT_DATA)");
         return;
     };
@@ -253,11 +352,24 @@ fn real_dataset_grid_records_checksums() {
     )
     .unwrap();
     let out = tmp.path().join("out");
-    run_ok(sweep().arg(&exp).arg("--output").arg(&out).env("VOLPHOT_DATA", &data));
+    run_ok(
+        sweep()
+            .arg(&exp)
+            .arg("--output")
+            .arg(&out)
+            .env("VOLPHOT_DATA", &data),
+    );
     let (headers, rows) = read_csv(&out.join("cells.csv"));
     assert_eq!(rows.len(), 2);
     for sha in column(&headers, &rows, "volume_sha256") {
-        assert_eq!(sha, "15cf29cdde69cd6c8b5ab9eeef4d1bb21f276056da4111cb5069ebfbe5b6ff90");
+        assert_eq!(
+            sha,
+            "15cf29cdde69cd6c8b5ab9eeef4d1bb21f276056da4111cb5069ebfbe5b6ff90"
+        );
     }
-    assert!(column(&headers, &rows, "volume").iter().all(|v| *v == "engine"));
+    assert!(
+        column(&headers, &rows, "volume")
+            .iter()
+            .all(|v| *v == "engine")
+    );
 }

@@ -234,10 +234,11 @@ fn key_segments(key: &str) -> Vec<String> {
 pub fn locate(src: &str, key: &str) -> Option<(usize, usize)> {
     use toml::de::{DeTable, DeValue};
     let root = DeTable::parse(src).ok()?;
+    let segments = key_segments(key);
     let mut best = None;
     let mut table: Option<&DeTable<'_>> = Some(root.get_ref());
     let mut value: Option<&toml::Spanned<DeValue<'_>>> = None;
-    for seg in key_segments(key) {
+    for (i, seg) in segments.iter().enumerate() {
         let next = match (table, value.map(|v| v.get_ref())) {
             (Some(t), _) => match t.get_key_value(seg.as_str()) {
                 Some((k, v)) => {
@@ -257,7 +258,17 @@ pub fn locate(src: &str, key: &str) -> Option<(usize, usize)> {
             }
             _ => break,
         };
-        if next.get_ref().as_table().is_none() && next.get_ref().as_array().is_none() {
+        // The key's own value (not a table header or an array of tables) is where a
+        // reader's eye goes.
+        let is_leaf_value = i + 1 == segments.len()
+            && match next.get_ref() {
+                DeValue::Table(_) => false,
+                DeValue::Array(a) => {
+                    !a.iter().all(|e| matches!(e.get_ref(), DeValue::Table(_))) || a.is_empty()
+                }
+                _ => true,
+            };
+        if is_leaf_value {
             best = Some(next.span().start);
         }
         value = Some(next);
@@ -278,7 +289,8 @@ pub fn key_at(src: &str, offset: usize) -> Option<String> {
                 format!("{prefix}.{}", k.get_ref())
             };
             let (ks, vs) = (k.span(), v.span());
-            let inside = |r: &std::ops::Range<usize>| r.start <= offset && offset < r.end.max(r.start + 1);
+            let inside =
+                |r: &std::ops::Range<usize>| r.start <= offset && offset < r.end.max(r.start + 1);
             if let DeValue::Table(t) = v.get_ref()
                 && let Some(found) = walk(t, offset, &key)
             {

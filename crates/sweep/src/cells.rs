@@ -124,33 +124,133 @@ fn extent_pct(r: &CellRecord, d: f64) -> f64 {
 
 /// The metric columns, in CSV order.
 pub const METRIC_COLUMNS: &[MetricColumn] = &[
-    MetricColumn { key: "time_photons", header: "time_photons [s]", value: |r, _| Some(r.timings.photon_tracing) },
-    MetricColumn { key: "time_tree", header: "time_tree [s]", value: |r, _| Some(r.timings.tree_build) },
-    MetricColumn { key: "time_render", header: "time_render [s]", value: |r, _| Some(r.timings.render) },
-    MetricColumn { key: "time_metrics", header: "time_metrics [s]", value: |r, m| Some(r.timings.metrics + m.map_or(0.0, |m| m.seconds)) },
-    MetricColumn { key: "march_shared_by", header: "march_shared_by [cells]", value: |r, _| Some(r.timings.march_shared_by as f64) },
-    MetricColumn { key: "peak_memory", header: "peak_memory [MiB]", value: |r, _| r.peak_memory_bytes.map(|b| b as f64 / 1048576.0) },
-    MetricColumn { key: "photons_emitted", header: "photons_emitted [count]", value: |r, _| r.photons.as_ref().map(|p| p.emitted as f64) },
-    MetricColumn { key: "photons_stored", header: "photons_stored [count]", value: |r, _| r.photons.as_ref().map(|p| p.stored as f64) },
-    MetricColumn { key: "empirical_mfp", header: "empirical_mfp [% extent]", value: |r, _| r.photons.as_ref().map(|p| extent_pct(r, p.mean_flight_distance)) },
-    MetricColumn { key: "nominal_mfp", header: "nominal_mfp [% extent]", value: |r, _| Some(r.sigma.mean_free_path_percent as f64) },
-    MetricColumn { key: "median_mfp", header: "median_mfp [% extent]", value: |r, _| Some(r.sigma.median_free_path_percent as f64) },
-    MetricColumn { key: "sigma_t_dmin", header: "sigma_t_dmin [1/world unit]", value: |r, _| Some(r.sigma.sigma_t_at_dmin as f64) },
-    MetricColumn { key: "d_min", header: "d_min [1]", value: |r, _| Some(r.sigma.d_min as f64) },
-    MetricColumn { key: "mean_single", header: "mean_single [W/(m2 sr)]", value: |r, _| Some(r.mean_single) },
-    MetricColumn { key: "mean_multiple", header: "mean_multiple [W/(m2 sr)]", value: |r, _| Some(r.mean_multiple) },
-    MetricColumn { key: "mean_emission", header: "mean_emission [W/(m2 sr)]", value: |r, _| Some(r.mean_emission) },
-    MetricColumn { key: "ms_share", header: "ms_share [1]", value: |r, _| {
-        let total = r.mean_single + r.mean_multiple + r.mean_emission;
-        (total > 0.0).then(|| r.mean_multiple / total)
-    } },
-    MetricColumn { key: "rmse", header: "rmse [W/(m2 sr)]", value: |_, m| m.map(|m| m.rmse) },
-    MetricColumn { key: "rel_mse", header: "rel_mse [1]", value: |_, m| m.map(|m| m.rel_mse) },
-    MetricColumn { key: "ssim", header: "ssim [1]", value: |_, m| m.map(|m| m.ssim) },
-    MetricColumn { key: "flip", header: "flip [1]", value: |_, m| m.map(|m| m.flip) },
-    MetricColumn { key: "disco_energy", header: "disco_energy [1]", value: |r, _| Some(r.disco.energy) },
-    MetricColumn { key: "disco_blobs", header: "disco_blobs [count]", value: |r, _| Some(r.disco.blobs as f64) },
-    MetricColumn { key: "disco_area", header: "disco_area [1]", value: |r, _| Some(r.disco.area) },
+    MetricColumn {
+        key: "time_photons",
+        header: "time_photons [s]",
+        value: |r, _| Some(r.timings.photon_tracing),
+    },
+    MetricColumn {
+        key: "time_tree",
+        header: "time_tree [s]",
+        value: |r, _| Some(r.timings.tree_build),
+    },
+    MetricColumn {
+        key: "time_render",
+        header: "time_render [s]",
+        value: |r, _| Some(r.timings.render),
+    },
+    MetricColumn {
+        key: "time_metrics",
+        header: "time_metrics [s]",
+        value: |r, m| Some(r.timings.metrics + m.map_or(0.0, |m| m.seconds)),
+    },
+    MetricColumn {
+        key: "march_shared_by",
+        header: "march_shared_by [cells]",
+        value: |r, _| Some(r.timings.march_shared_by as f64),
+    },
+    MetricColumn {
+        key: "peak_memory",
+        header: "peak_memory [MiB]",
+        value: |r, _| r.peak_memory_bytes.map(|b| b as f64 / 1048576.0),
+    },
+    MetricColumn {
+        key: "photons_emitted",
+        header: "photons_emitted [count]",
+        value: |r, _| r.photons.as_ref().map(|p| p.emitted as f64),
+    },
+    MetricColumn {
+        key: "photons_stored",
+        header: "photons_stored [count]",
+        value: |r, _| r.photons.as_ref().map(|p| p.stored as f64),
+    },
+    MetricColumn {
+        key: "empirical_mfp",
+        header: "empirical_mfp [% extent]",
+        value: |r, _| {
+            r.photons
+                .as_ref()
+                .map(|p| extent_pct(r, p.mean_flight_distance))
+        },
+    },
+    MetricColumn {
+        key: "nominal_mfp",
+        header: "nominal_mfp [% extent]",
+        value: |r, _| Some(r.sigma.mean_free_path_percent as f64),
+    },
+    MetricColumn {
+        key: "median_mfp",
+        header: "median_mfp [% extent]",
+        value: |r, _| Some(r.sigma.median_free_path_percent as f64),
+    },
+    MetricColumn {
+        key: "sigma_t_dmin",
+        header: "sigma_t_dmin [1/world unit]",
+        value: |r, _| Some(r.sigma.sigma_t_at_dmin as f64),
+    },
+    MetricColumn {
+        key: "d_min",
+        header: "d_min [1]",
+        value: |r, _| Some(r.sigma.d_min as f64),
+    },
+    MetricColumn {
+        key: "mean_single",
+        header: "mean_single [W/(m2 sr)]",
+        value: |r, _| Some(r.mean_single),
+    },
+    MetricColumn {
+        key: "mean_multiple",
+        header: "mean_multiple [W/(m2 sr)]",
+        value: |r, _| Some(r.mean_multiple),
+    },
+    MetricColumn {
+        key: "mean_emission",
+        header: "mean_emission [W/(m2 sr)]",
+        value: |r, _| Some(r.mean_emission),
+    },
+    MetricColumn {
+        key: "ms_share",
+        header: "ms_share [1]",
+        value: |r, _| {
+            let total = r.mean_single + r.mean_multiple + r.mean_emission;
+            (total > 0.0).then(|| r.mean_multiple / total)
+        },
+    },
+    MetricColumn {
+        key: "rmse",
+        header: "rmse [W/(m2 sr)]",
+        value: |_, m| m.map(|m| m.rmse),
+    },
+    MetricColumn {
+        key: "rel_mse",
+        header: "rel_mse [1]",
+        value: |_, m| m.map(|m| m.rel_mse),
+    },
+    MetricColumn {
+        key: "ssim",
+        header: "ssim [1]",
+        value: |_, m| m.map(|m| m.ssim),
+    },
+    MetricColumn {
+        key: "flip",
+        header: "flip [1]",
+        value: |_, m| m.map(|m| m.flip),
+    },
+    MetricColumn {
+        key: "disco_energy",
+        header: "disco_energy [1]",
+        value: |r, _| Some(r.disco.energy),
+    },
+    MetricColumn {
+        key: "disco_blobs",
+        header: "disco_blobs [count]",
+        value: |r, _| Some(r.disco.blobs as f64),
+    },
+    MetricColumn {
+        key: "disco_area",
+        header: "disco_area [1]",
+        value: |r, _| Some(r.disco.area),
+    },
 ];
 
 /// The identity of a cell's volume without loading it.
@@ -181,7 +281,8 @@ pub fn cell_hash(spec: &CellSpec) -> Result<String> {
     if let Some(f) = &spec.params.transfer.file {
         let path = spec.base_dir.join(f);
         text += "\n";
-        text += &volphot::checksum::sha256_cached(&path).unwrap_or_else(|_| path.display().to_string());
+        text +=
+            &volphot::checksum::sha256_cached(&path).unwrap_or_else(|_| path.display().to_string());
     }
     Ok(volphot::checksum::sha256_bytes(text.as_bytes())[..16].to_string())
 }
@@ -237,7 +338,8 @@ pub fn is_done(dir: &Path) -> bool {
 /// Reads a finished cell's record.
 pub fn read_record(dir: &Path) -> Result<CellRecord> {
     let path = dir.join("cell.json");
-    let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
     serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))
 }
 
@@ -256,8 +358,12 @@ pub struct StagedDir {
 impl StagedDir {
     /// Creates `.<target>.tmp-<host>-<pid>` (removing a stale one).
     pub fn new(target: &Path) -> Result<Self> {
-        let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let tmp = target.with_file_name(format!(".{name}.tmp-{}-{}", hostname(), std::process::id()));
+        let name = target
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let tmp =
+            target.with_file_name(format!(".{name}.tmp-{}-{}", hostname(), std::process::id()));
         let _ = std::fs::remove_dir_all(&tmp);
         std::fs::create_dir_all(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
         Ok(StagedDir {

@@ -26,10 +26,15 @@ pub fn with_default_subcommand(mut args: Vec<std::ffi::OsString>) -> Vec<std::ff
     let command = Cli::command();
     let names: Vec<String> = command
         .get_subcommands()
-        .flat_map(|c| std::iter::once(c.get_name().to_string()).chain(c.get_all_aliases().map(str::to_string)))
+        .flat_map(|c| {
+            std::iter::once(c.get_name().to_string()).chain(c.get_all_aliases().map(str::to_string))
+        })
         .chain(["help".to_string()])
         .collect();
-    let first = args.iter().skip(1).position(|a| !a.to_string_lossy().starts_with('-'));
+    let first = args
+        .iter()
+        .skip(1)
+        .position(|a| !a.to_string_lossy().starts_with('-'));
     let top_level_flag = args.iter().skip(1).any(|a| {
         let a = a.to_string_lossy();
         a == "-h" || a == "--help" || a == "-V" || a == "--version"

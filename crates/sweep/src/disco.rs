@@ -126,7 +126,12 @@ pub fn disco_score(y: &Gray, mask: &[bool]) -> DiscoScore {
     let weighted = Gray {
         width: w,
         height: h,
-        data: y.data.iter().zip(mask).map(|(&v, &m)| if m { v.max(0.0) } else { 0.0 }).collect(),
+        data: y
+            .data
+            .iter()
+            .zip(mask)
+            .map(|(&v, &m)| if m { v.max(0.0) } else { 0.0 })
+            .collect(),
     };
     let total: f64 = weighted.data.iter().map(|&v| v as f64).sum();
     let mask_count = mask.iter().filter(|m| **m).count();
@@ -166,7 +171,10 @@ pub fn disco_score(y: &Gray, mask: &[bool]) -> DiscoScore {
             }
         }
     }
-    let in_blob: Vec<bool> = best_contrast.iter().map(|&c| c > CONTRAST_THRESHOLD).collect();
+    let in_blob: Vec<bool> = best_contrast
+        .iter()
+        .map(|&c| c > CONTRAST_THRESHOLD)
+        .collect();
     // 4-connected components, keeping those with at least π·1.5² ≈ 7 pixels.
     let min_pixels = (std::f32::consts::PI * MIN_SCALE * MIN_SCALE).ceil() as usize;
     let mut label = vec![0u32; n];
@@ -241,7 +249,8 @@ mod tests {
                 }
                 let i = y * W + x;
                 mask[i] = true;
-                let background = 1.0 + 0.6 * fx / W as f32 + 0.3 * (fy / W as f32 * std::f32::consts::TAU).sin();
+                let background =
+                    1.0 + 0.6 * fx / W as f32 + 0.3 * (fy / W as f32 * std::f32::consts::TAU).sin();
                 let mut v = background;
                 for &(bx, by) in blobs {
                     let d2 = (fx - bx).powi(2) + (fy - by).powi(2);
@@ -256,7 +265,14 @@ mod tests {
         (img, mask)
     }
 
-    const SIX: [(f32, f32); 6] = [(70.0, 80.0), (128.0, 60.0), (185.0, 90.0), (80.0, 170.0), (140.0, 150.0), (180.0, 190.0)];
+    const SIX: [(f32, f32); 6] = [
+        (70.0, 80.0),
+        (128.0, 60.0),
+        (185.0, 90.0),
+        (80.0, 170.0),
+        (140.0, 150.0),
+        (180.0, 190.0),
+    ];
 
     #[test]
     fn blob_free_image_scores_about_zero() {
@@ -284,9 +300,17 @@ mod tests {
             let (img, mask) = synthetic(&SIX, 6.0, contrast, 3);
             let s = disco_score(&img, &mask);
             if contrast >= 0.6 {
-                assert!(s.energy > last, "contrast {contrast}: {} after {last}", s.energy);
+                assert!(
+                    s.energy > last,
+                    "contrast {contrast}: {} after {last}",
+                    s.energy
+                );
             } else {
-                assert!(s.energy >= last.max(0.0), "contrast {contrast}: {} after {last}", s.energy);
+                assert!(
+                    s.energy >= last.max(0.0),
+                    "contrast {contrast}: {} after {last}",
+                    s.energy
+                );
             }
             last = s.energy;
         }

@@ -227,7 +227,12 @@ fn default_true() -> bool {
 }
 
 /// An error located in the experiment file.
-fn located(exp_path: &Path, src: &str, key_path: &str, message: impl std::fmt::Display) -> anyhow::Error {
+fn located(
+    exp_path: &Path,
+    src: &str,
+    key_path: &str,
+    message: impl std::fmt::Display,
+) -> anyhow::Error {
     let (line, column) = locate_key(src, key_path).unwrap_or((1, 1));
     anyhow::anyhow!("{}:{line}:{column}: {message}", exp_path.display())
 }
@@ -237,10 +242,12 @@ fn locate_key(src: &str, key_path: &str) -> Option<(usize, usize)> {
     if let Some((table, rest)) = key_path.split_once('.') {
         // Try the quoted form first: find `"rest"` after the table header.
         let quoted = format!("\"{rest}\"");
-        if let Some(start) = src.find(&format!("[{table}]")).or_else(|| src.find(&format!("{table} ="))) {
-            if let Some(off) = src[start..].find(&quoted) {
-                return Some(line_col(src, start + off));
-            }
+        if let Some(start) = src
+            .find(&format!("[{table}]"))
+            .or_else(|| src.find(&format!("{table} =")))
+            && let Some(off) = src[start..].find(&quoted)
+        {
+            return Some(line_col(src, start + off));
         }
     }
     locate(src, key_path)
@@ -272,7 +279,9 @@ fn flatten_set(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
         match v {
             // A table value is recursed into unless it is an inline value for a key that
             // takes a table (phantom, box): those are set whole.
-            Value::Table(t) if !matches!(k.as_str(), "phantom" | "box") => flatten_set(t, &key, out),
+            Value::Table(t) if !matches!(k.as_str(), "phantom" | "box") => {
+                flatten_set(t, &key, out)
+            }
             other => out.push((key, other.clone())),
         }
     }
@@ -291,7 +300,9 @@ fn axis_values(spec: &Value) -> std::result::Result<Vec<Value>, String> {
         Value::Table(t) => {
             for k in t.keys() {
                 if !["from", "to", "steps", "scale"].contains(&k.as_str()) {
-                    return Err(format!("unknown range key `{k}` (expected from, to, steps, scale)"));
+                    return Err(format!(
+                        "unknown range key `{k}` (expected from, to, steps, scale)"
+                    ));
                 }
             }
             let num = |k: &str| -> std::result::Result<(f64, bool), String> {
@@ -306,7 +317,11 @@ fn axis_values(spec: &Value) -> std::result::Result<Vec<Value>, String> {
             let (to, to_int) = num("to")?;
             let steps = match t.get("steps") {
                 Some(Value::Integer(n)) if *n >= 1 && *n <= 10_000 => *n as usize,
-                Some(other) => return Err(format!("`steps` = {other}: expected an integer in [1, 10000]")),
+                Some(other) => {
+                    return Err(format!(
+                        "`steps` = {other}: expected an integer in [1, 10000]"
+                    ));
+                }
                 None => return Err("range needs `steps`".into()),
             };
             let log = match t.get("scale").map(|v| v.as_str()) {
@@ -320,7 +335,11 @@ fn axis_values(spec: &Value) -> std::result::Result<Vec<Value>, String> {
             let integer = from_int && to_int;
             let mut values = Vec::new();
             for i in 0..steps {
-                let f = if steps == 1 { 0.0 } else { i as f64 / (steps - 1) as f64 };
+                let f = if steps == 1 {
+                    0.0
+                } else {
+                    i as f64 / (steps - 1) as f64
+                };
                 let v = if log {
                     (from.ln() + f * (to.ln() - from.ln())).exp()
                 } else {
@@ -338,14 +357,17 @@ fn axis_values(spec: &Value) -> std::result::Result<Vec<Value>, String> {
             }
             Ok(values)
         }
-        other => Err(format!("{other}: expected a list of values or {{ from, to, steps, scale }}")),
+        other => Err(format!(
+            "{other}: expected a list of values or {{ from, to, steps, scale }}"
+        )),
     }
 }
 
 impl Experiment {
     /// Reads and validates an experiment file.
     pub fn load(path: &Path) -> Result<Self> {
-        let source = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let source =
+            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
         let file: ExperimentFile =
             toml::from_str(&source).map_err(|e| anyhow::anyhow!(toml_error(&e, &source, path)))?;
         let name = file.name.clone().unwrap_or_else(|| {
@@ -356,12 +378,24 @@ impl Experiment {
         let base = match &file.scene {
             Some(Value::String(s)) => BaseScene::File(PathBuf::from(s)),
             Some(Value::Table(t)) => BaseScene::Inline(t.clone()),
-            Some(other) => return Err(located(path, &source, "scene", format!("`scene` = {other}: expected a scene file path or an inline table"))),
+            Some(other) => {
+                return Err(located(
+                    path,
+                    &source,
+                    "scene",
+                    format!("`scene` = {other}: expected a scene file path or an inline table"),
+                ));
+            }
             None => {
                 let mut axes = Vec::new();
                 flatten_axes(&file.axes, "", &mut axes);
                 if !axes.iter().any(|(k, _)| k == "scene") {
-                    return Err(located(path, &source, "scene", "missing `scene`: a base scene file, an inline [scene] table, or a `scene` axis"));
+                    return Err(located(
+                        path,
+                        &source,
+                        "scene",
+                        "missing `scene`: a base scene file, an inline [scene] table, or a `scene` axis",
+                    ));
                 }
                 BaseScene::Inline(Table::new())
             }
@@ -372,7 +406,14 @@ impl Experiment {
         let mut axes = Vec::new();
         flatten_axes(&file.axes, "", &mut axes);
         for (key, spec) in &axes {
-            let values = axis_values(spec).map_err(|m| located(path, &source, &format!("axes.{key}"), format!("axis `{key}`: {m}")))?;
+            let values = axis_values(spec).map_err(|m| {
+                located(
+                    path,
+                    &source,
+                    &format!("axes.{key}"),
+                    format!("axis `{key}`: {m}"),
+                )
+            })?;
             dimensions.push(Dimension {
                 keys: vec![key.clone()],
                 values: values.into_iter().map(|v| vec![v]).collect(),
@@ -384,31 +425,50 @@ impl Experiment {
             let mut keys = Vec::new();
             let mut columns = Vec::new();
             for (key, spec) in &zaxes {
-                let values = axis_values(spec).map_err(|m| located(path, &source, &format!("zip.{key}"), format!("zip[{zi}] axis `{key}`: {m}")))?;
+                let values = axis_values(spec).map_err(|m| {
+                    located(
+                        path,
+                        &source,
+                        &format!("zip.{key}"),
+                        format!("zip[{zi}] axis `{key}`: {m}"),
+                    )
+                })?;
                 keys.push(key.clone());
                 columns.push(values);
             }
             let len = columns.first().map(|c| c.len()).unwrap_or(0);
             if let Some((k, c)) = keys.iter().zip(&columns).find(|(_, c)| c.len() != len) {
-                return Err(located(path, &source, &format!("zip.{k}"), format!(
-                    "zip[{zi}]: axis `{k}` has {} values but `{}` has {len}; zipped axes move together and need equal lengths",
-                    c.len(),
-                    keys[0]
-                )));
+                return Err(located(
+                    path,
+                    &source,
+                    &format!("zip.{k}"),
+                    format!(
+                        "zip[{zi}]: axis `{k}` has {} values but `{}` has {len}; zipped axes move together and need equal lengths",
+                        c.len(),
+                        keys[0]
+                    ),
+                ));
             }
             if len == 0 {
                 return Err(located(path, &source, "zip", format!("zip[{zi}] is empty")));
             }
             dimensions.push(Dimension {
                 keys,
-                values: (0..len).map(|i| columns.iter().map(|c| c[i].clone()).collect()).collect(),
+                values: (0..len)
+                    .map(|i| columns.iter().map(|c| c[i].clone()).collect())
+                    .collect(),
             });
         }
         let mut seen = std::collections::HashSet::new();
         for d in &dimensions {
             for k in &d.keys {
                 if !seen.insert(k.clone()) {
-                    return Err(located(path, &source, &format!("axes.{k}"), format!("axis `{k}` is given twice (in [axes] and/or [[zip]])")));
+                    return Err(located(
+                        path,
+                        &source,
+                        &format!("axes.{k}"),
+                        format!("axis `{k}` is given twice (in [axes] and/or [[zip]])"),
+                    ));
                 }
             }
         }
@@ -424,64 +484,150 @@ impl Experiment {
         for (ei, rule) in exclude.iter().enumerate() {
             for (k, _) in rule {
                 if !seen.contains(k) {
-                    return Err(located(path, &source, "exclude", format!("exclude[{ei}]: `{k}` is not an axis (axes: {})", seen.iter().cloned().collect::<Vec<_>>().join(", "))));
+                    return Err(located(
+                        path,
+                        &source,
+                        "exclude",
+                        format!(
+                            "exclude[{ei}]: `{k}` is not an axis (axes: {})",
+                            seen.iter().cloned().collect::<Vec<_>>().join(", ")
+                        ),
+                    ));
                 }
             }
         }
         for q in file.quality.keys() {
             if q != "quick" && q != "paper" {
-                return Err(located(path, &source, &format!("quality.{q}"), format!("unknown quality preset `{q}` (expected quick or paper)")));
+                return Err(located(
+                    path,
+                    &source,
+                    &format!("quality.{q}"),
+                    format!("unknown quality preset `{q}` (expected quick or paper)"),
+                ));
             }
         }
         if let Some(r) = &file.reference {
             if r.method != "path" && r.method != "photon" {
-                return Err(located(path, &source, "reference.method", format!("`reference.method` = \"{}\": expected \"path\" or \"photon\"", r.method)));
+                return Err(located(
+                    path,
+                    &source,
+                    "reference.method",
+                    format!(
+                        "`reference.method` = \"{}\": expected \"path\" or \"photon\"",
+                        r.method
+                    ),
+                ));
             }
             if r.spp == 0 {
-                return Err(located(path, &source, "reference.spp", "`reference.spp` = 0: expected at least 1"));
+                return Err(located(
+                    path,
+                    &source,
+                    "reference.spp",
+                    "`reference.spp` = 0: expected at least 1",
+                ));
             }
         }
         for (ci, c) in file.compare.iter().enumerate() {
             match c.kind.as_str() {
                 "layers" | "reference" => {}
                 "axis" => {
-                    let axis = c.axis.as_ref().ok_or_else(|| located(path, &source, "compare", format!("compare[{ci}]: kind = \"axis\" needs `axis`")))?;
+                    let axis = c.axis.as_ref().ok_or_else(|| {
+                        located(
+                            path,
+                            &source,
+                            "compare",
+                            format!("compare[{ci}]: kind = \"axis\" needs `axis`"),
+                        )
+                    })?;
                     if !seen.contains(axis) {
-                        return Err(located(path, &source, "compare", format!("compare[{ci}]: `{axis}` is not an axis")));
+                        return Err(located(
+                            path,
+                            &source,
+                            "compare",
+                            format!("compare[{ci}]: `{axis}` is not an axis"),
+                        ));
                     }
                     if c.b.is_none() {
-                        return Err(located(path, &source, "compare", format!("compare[{ci}]: kind = \"axis\" needs `b` (the value compared against)")));
+                        return Err(located(
+                            path,
+                            &source,
+                            "compare",
+                            format!(
+                                "compare[{ci}]: kind = \"axis\" needs `b` (the value compared against)"
+                            ),
+                        ));
                     }
                 }
-                other => return Err(located(path, &source, "compare", format!("compare[{ci}]: kind = \"{other}\": expected layers, reference or axis"))),
+                other => {
+                    return Err(located(
+                        path,
+                        &source,
+                        "compare",
+                        format!(
+                            "compare[{ci}]: kind = \"{other}\": expected layers, reference or axis"
+                        ),
+                    ));
+                }
             }
             if c.kind == "reference" && file.reference.is_none() {
-                return Err(located(path, &source, "compare", format!("compare[{ci}]: kind = \"reference\" needs a [reference] table")));
+                return Err(located(
+                    path,
+                    &source,
+                    "compare",
+                    format!("compare[{ci}]: kind = \"reference\" needs a [reference] table"),
+                ));
             }
         }
         for (pi, p) in file.plots.iter().enumerate() {
             for k in std::iter::once(&p.x).chain(p.series.iter()) {
                 if !seen.contains(k) {
-                    return Err(located(path, &source, "plots", format!("plots[{pi}]: `{k}` is not an axis")));
+                    return Err(located(
+                        path,
+                        &source,
+                        "plots",
+                        format!("plots[{pi}]: `{k}` is not an axis"),
+                    ));
                 }
             }
             for y in &p.y {
                 if !crate::cells::METRIC_COLUMNS.iter().any(|m| m.key == y) {
-                    return Err(located(path, &source, "plots", format!(
-                        "plots[{pi}]: `{y}` is not a metric (metrics: {})",
-                        crate::cells::METRIC_COLUMNS.iter().map(|m| m.key).collect::<Vec<_>>().join(", ")
-                    )));
+                    return Err(located(
+                        path,
+                        &source,
+                        "plots",
+                        format!(
+                            "plots[{pi}]: `{y}` is not a metric (metrics: {})",
+                            crate::cells::METRIC_COLUMNS
+                                .iter()
+                                .map(|m| m.key)
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    ));
                 }
             }
         }
         for (si, s) in file.sheets.iter().enumerate() {
             for k in std::iter::once(&s.rows).chain(s.cols.iter()) {
                 if !seen.contains(k) {
-                    return Err(located(path, &source, "sheets", format!("sheets[{si}]: `{k}` is not an axis")));
+                    return Err(located(
+                        path,
+                        &source,
+                        "sheets",
+                        format!("sheets[{si}]: `{k}` is not an axis"),
+                    ));
                 }
             }
             if !["total", "single", "multiple", "diff"].contains(&s.layer.as_str()) {
-                return Err(located(path, &source, "sheets", format!("sheets[{si}]: layer = \"{}\": expected total, single, multiple or diff", s.layer)));
+                return Err(located(
+                    path,
+                    &source,
+                    "sheets",
+                    format!(
+                        "sheets[{si}]: layer = \"{}\": expected total, single, multiple or diff",
+                        s.layer
+                    ),
+                ));
             }
         }
         Ok(Experiment {
@@ -506,7 +652,10 @@ impl Experiment {
 
     /// The folder holding the experiment file (base for relative paths).
     pub fn base_dir(&self) -> PathBuf {
-        self.path.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."))
+        self.path
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from("."))
     }
 
     /// Axis keys in grid order.
@@ -522,12 +671,26 @@ impl Experiment {
             let mut replacements = Vec::new();
             flatten_axes(&preset.axes, "", &mut replacements);
             for (key, spec) in replacements {
-                let values = axis_values(&spec).map_err(|m| located(&self.path, &self.source, "quality", format!("quality axis `{key}`: {m}")))?;
+                let values = axis_values(&spec).map_err(|m| {
+                    located(
+                        &self.path,
+                        &self.source,
+                        "quality",
+                        format!("quality axis `{key}`: {m}"),
+                    )
+                })?;
                 match dims.iter_mut().find(|d| d.keys == [key.clone()]) {
                     Some(d) => d.values = values.into_iter().map(|v| vec![v]).collect(),
                     None => {
                         if dims.iter().any(|d| d.keys.contains(&key)) {
-                            return Err(located(&self.path, &self.source, "quality", format!("quality axis `{key}` is part of a [[zip]] group and cannot be replaced alone")));
+                            return Err(located(
+                                &self.path,
+                                &self.source,
+                                "quality",
+                                format!(
+                                    "quality axis `{key}` is part of a [[zip]] group and cannot be replaced alone"
+                                ),
+                            ));
                         }
                         dims.push(Dimension {
                             keys: vec![key],
@@ -552,12 +715,16 @@ impl Experiment {
         let dir = self.base_dir();
         let load = |rel: &Path| -> Result<(Table, PathBuf)> {
             let path = dir.join(rel);
-            let text = std::fs::read_to_string(&path)
-                .with_context(|| format!("{}: reading scene {}", self.path.display(), path.display()))?;
+            let text = std::fs::read_to_string(&path).with_context(|| {
+                format!("{}: reading scene {}", self.path.display(), path.display())
+            })?;
             let table: Table = text
                 .parse()
                 .map_err(|e: toml::de::Error| anyhow::anyhow!(toml_error(&e, &text, &path)))?;
-            let base = path.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
+            let base = path
+                .parent()
+                .map(Path::to_path_buf)
+                .unwrap_or_else(|| PathBuf::from("."));
             Ok((table, base))
         };
         match (scene_file, &self.base) {
@@ -589,46 +756,59 @@ impl Experiment {
                 }
                 index[pos] = 0;
             }
-            if self
-                .exclude
-                .iter()
-                .any(|rule| rule.iter().all(|(k, v)| axes.iter().any(|(ak, av)| ak == k && values_equal(av, v))))
-            {
+            if self.exclude.iter().any(|rule| {
+                rule.iter()
+                    .all(|(k, v)| axes.iter().any(|(ak, av)| ak == k && values_equal(av, v)))
+            }) {
                 continue;
             }
             cells.push(self.cell(cells.len(), axes, quality)?);
         }
         if cells.is_empty() {
-            return Err(located(&self.path, &self.source, "exclude", format!(
-                "the grid is empty: {total} combination(s), all excluded"
-            )));
+            return Err(located(
+                &self.path,
+                &self.source,
+                "exclude",
+                format!("the grid is empty: {total} combination(s), all excluded"),
+            ));
         }
         Ok(cells)
     }
 
     fn cell(&self, index: usize, axes: Vec<(String, Value)>, quality: Quality) -> Result<CellSpec> {
-        let scene_file = axes.iter().find(|(k, _)| k == "scene").map(|(_, v)| match v {
-            Value::String(s) => Ok(s.clone()),
-            other => Err(located(&self.path, &self.source, "axes.scene", format!("`scene` axis value {other}: expected a scene file path"))),
-        });
+        let scene_file = axes
+            .iter()
+            .find(|(k, _)| k == "scene")
+            .map(|(_, v)| match v {
+                Value::String(s) => Ok(s.clone()),
+                other => Err(located(
+                    &self.path,
+                    &self.source,
+                    "axes.scene",
+                    format!("`scene` axis value {other}: expected a scene file path"),
+                )),
+            });
         let scene_file = scene_file.transpose()?;
         let (mut table, base_dir) = self.base_table(scene_file.as_deref())?;
         for (k, v) in &self.set {
-            set_key(&mut table, k, v.clone()).map_err(|m| located(&self.path, &self.source, &format!("set.{k}"), m))?;
+            set_key(&mut table, k, v.clone())
+                .map_err(|m| located(&self.path, &self.source, &format!("set.{k}"), m))?;
         }
         apply_quality_defaults(&mut table, quality, self.preset(quality).is_some());
         if let Some(preset) = self.preset(quality) {
             let mut set = Vec::new();
             flatten_set(&preset.set, "", &mut set);
             for (k, v) in set {
-                set_key(&mut table, &k, v).map_err(|m| located(&self.path, &self.source, "quality", m))?;
+                set_key(&mut table, &k, v)
+                    .map_err(|m| located(&self.path, &self.source, "quality", m))?;
             }
         }
         for (k, v) in &axes {
             if k == "scene" {
                 continue;
             }
-            set_key(&mut table, k, v.clone()).map_err(|m| located(&self.path, &self.source, &format!("axes.{k}"), m))?;
+            set_key(&mut table, k, v.clone())
+                .map_err(|m| located(&self.path, &self.source, &format!("axes.{k}"), m))?;
         }
         let describe = || {
             axes.iter()
@@ -641,15 +821,31 @@ impl Experiment {
             let message = e.message().trim().to_string();
             // The key behind the complaint: from the error's position in the generated scene,
             // or (unknown keys) from the name the reader quotes.
-            let key = e.span().and_then(|s| volphot::scene::key_at(&text, s.start));
+            let key = e
+                .span()
+                .and_then(|s| volphot::scene::key_at(&text, s.start));
             let culprit = axes
                 .iter()
                 .map(|(k, _)| (k.clone(), format!("axes.{k}")))
-                .chain(self.set.iter().map(|(k, _)| (k.clone(), format!("set.{k}"))))
-                .find(|(k, _)| Some(k) == key.as_ref() || message.contains(&format!("`{}`", short_key(k))));
-            let at = culprit.as_ref().map(|(_, at)| at.clone()).unwrap_or_else(|| "axes".into());
+                .chain(
+                    self.set
+                        .iter()
+                        .map(|(k, _)| (k.clone(), format!("set.{k}"))),
+                )
+                .find(|(k, _)| {
+                    Some(k) == key.as_ref() || message.contains(&format!("`{}`", short_key(k)))
+                });
+            let at = culprit
+                .as_ref()
+                .map(|(_, at)| at.clone())
+                .unwrap_or_else(|| "axes".into());
             let named = key.map(|k| format!("`{k}`: ")).unwrap_or_default();
-            located(&self.path, &self.source, &at, format!("cell {index} ({}): {named}{message}", describe()))
+            located(
+                &self.path,
+                &self.source,
+                &at,
+                format!("cell {index} ({}): {named}{message}", describe()),
+            )
         })?;
         validate_params(&params).map_err(|e| {
             let key = match &e {
@@ -661,7 +857,12 @@ impl Experiment {
             } else {
                 format!("set.{key}")
             };
-            located(&self.path, &self.source, &where_, format!("cell {index} ({}): {e}", describe()))
+            located(
+                &self.path,
+                &self.source,
+                &where_,
+                format!("cell {index} ({}): {e}", describe()),
+            )
         })?;
         Ok(CellSpec {
             index,
@@ -675,7 +876,9 @@ impl Experiment {
 /// Compares axis values, treating 80 and 80.0 as equal.
 pub fn values_equal(a: &Value, b: &Value) -> bool {
     match (a, b) {
-        (Value::Integer(x), Value::Float(y)) | (Value::Float(y), Value::Integer(x)) => (*x as f64) == *y,
+        (Value::Integer(x), Value::Float(y)) | (Value::Float(y), Value::Integer(x)) => {
+            (*x as f64) == *y
+        }
         _ => a == b,
     }
 }
@@ -689,7 +892,9 @@ pub fn set_key(table: &mut Table, key: &str, value: Value) -> std::result::Resul
             t.insert(part.to_string(), value);
             return Ok(());
         }
-        let entry = t.entry(part.to_string()).or_insert_with(|| Value::Table(Table::new()));
+        let entry = t
+            .entry(part.to_string())
+            .or_insert_with(|| Value::Table(Table::new()));
         t = match entry {
             Value::Table(inner) => inner,
             other => {
@@ -822,15 +1027,27 @@ integrator.nused = [25, 150]
         let cells = e.plan(Quality::Default).unwrap();
         // 2 × 3 × 2 = 12, minus the 2 cells with nused 25 and t 300.
         assert_eq!(cells.len(), 10);
-        let t_values: Vec<String> = cells.iter().map(|c| value_text(c.axis("sigma.t").unwrap())).collect();
-        assert!(t_values.contains(&"6".to_string()) && t_values.contains(&"42".to_string()), "{t_values:?}");
+        let t_values: Vec<String> = cells
+            .iter()
+            .map(|c| value_text(c.axis("sigma.t").unwrap()))
+            .collect();
+        assert!(
+            t_values.contains(&"6".to_string()) && t_values.contains(&"42".to_string()),
+            "{t_values:?}"
+        );
         let c = &cells[1];
         assert_eq!(c.params.integrator.nused, 25);
         assert_eq!(c.params.integrator.maxdist, 0.1);
         assert_eq!(c.params.integrator.volume_photons, 2000);
         // --quick quarters the resolution (min 64), --paper is 512².
-        assert_eq!(e.plan(Quality::Quick).unwrap()[0].params.camera.resolution, [64, 64]);
-        assert_eq!(e.plan(Quality::Paper).unwrap()[0].params.camera.resolution, [512, 512]);
+        assert_eq!(
+            e.plan(Quality::Quick).unwrap()[0].params.camera.resolution,
+            [64, 64]
+        );
+        assert_eq!(
+            e.plan(Quality::Paper).unwrap()[0].params.camera.resolution,
+            [512, 512]
+        );
     }
 
     #[test]
@@ -838,13 +1055,37 @@ integrator.nused = [25, 150]
         let dir = tempfile::tempdir().unwrap();
         write(dir.path(), "s.toml", SCENE);
         let cases = [
-            ("scene = \"s.toml\"\n[axes]\n\"integrator.nused\" = [0, 5]\n", "e.toml:3:1", "`integrator.nused` = 0"),
-            ("scene = \"s.toml\"\nmax_cell = 3\n", "e.toml:2:1", "max_cell"),
-            ("scene = \"s.toml\"\n[axes]\n\"sigma.t\" = { from = 6, to = 300 }\n", "e.toml:3", "steps"),
-            ("scene = \"s.toml\"\n[[zip]]\na = [1, 2]\nb = [1]\n", "e.toml:", "equal lengths"),
-            ("scene = \"s.toml\"\n[axes]\n\"integrator.nused\" = [5]\n[[exclude]]\n\"integrator.nused\" = 5\n", "e.toml:", "empty"),
+            (
+                "scene = \"s.toml\"\n[axes]\n\"integrator.nused\" = [0, 5]\n",
+                "e.toml:3:1",
+                "`integrator.nused` = 0",
+            ),
+            (
+                "scene = \"s.toml\"\nmax_cell = 3\n",
+                "e.toml:2:1",
+                "max_cell",
+            ),
+            (
+                "scene = \"s.toml\"\n[axes]\n\"sigma.t\" = { from = 6, to = 300 }\n",
+                "e.toml:3",
+                "steps",
+            ),
+            (
+                "scene = \"s.toml\"\n[[zip]]\na = [1, 2]\nb = [1]\n",
+                "e.toml:",
+                "equal lengths",
+            ),
+            (
+                "scene = \"s.toml\"\n[axes]\n\"integrator.nused\" = [5]\n[[exclude]]\n\"integrator.nused\" = 5\n",
+                "e.toml:",
+                "empty",
+            ),
             ("scene = \"missing.toml\"\n", "e.toml", "missing.toml"),
-            ("scene = \"s.toml\"\n[axes]\n\"integrator.nsued\" = [5]\n", "e.toml:3", "nsued"),
+            (
+                "scene = \"s.toml\"\n[axes]\n\"integrator.nsued\" = [5]\n",
+                "e.toml:3",
+                "nsued",
+            ),
         ];
         for (text, at, what) in cases {
             let p = write(dir.path(), "e.toml", text);

@@ -28,7 +28,12 @@ impl Rgb8 {
         Rgb8 {
             width,
             height,
-            data: colour.iter().copied().cycle().take(width * height * 3).collect(),
+            data: colour
+                .iter()
+                .copied()
+                .cycle()
+                .take(width * height * 3)
+                .collect(),
         }
     }
 
@@ -68,7 +73,10 @@ impl Rgb8 {
         use ab_glyph::{Font, FontRef, ScaleFont};
         let font = FontRef::try_from_slice(ttf_noto_sans::REGULAR).expect("embedded font parses");
         let scaled = font.as_scaled(px);
-        let width: f32 = text.chars().map(|c| scaled.h_advance(scaled.glyph_id(c))).sum();
+        let width: f32 = text
+            .chars()
+            .map(|c| scaled.h_advance(scaled.glyph_id(c)))
+            .sum();
         // Darken a box behind the text so labels stay legible on bright images.
         let (x0, y0) = (x.max(0.0) as usize, y.max(0.0) as usize);
         let (x1, y1) = (
@@ -99,13 +107,17 @@ impl Rgb8 {
                 outline.draw(|gx, gy, coverage| {
                     let px_x = bounds.min.x as i64 + gx as i64;
                     let px_y = bounds.min.y as i64 + gy as i64;
-                    if px_x < 0 || px_y < 0 || px_x >= self.width as i64 || px_y >= self.height as i64 {
+                    if px_x < 0
+                        || px_y < 0
+                        || px_x >= self.width as i64
+                        || px_y >= self.height as i64
+                    {
                         return;
                     }
                     let i = (px_y as usize * self.width + px_x as usize) * 3;
                     let a = coverage.clamp(0.0, 1.0);
-                    for c in 0..3 {
-                        self.data[i + c] = (self.data[i + c] as f32 * (1.0 - a) + colour[c] as f32 * a).round() as u8;
+                    for (d, &c) in self.data[i..i + 3].iter_mut().zip(&colour) {
+                        *d = (*d as f32 * (1.0 - a) + c as f32 * a).round() as u8;
                     }
                 });
             }
@@ -146,18 +158,33 @@ pub fn contact_sheet(title: &str, tiles: &[Tile], cols: usize, tile_size: usize)
     sheet.text(title, 6.0, 6.0, 20.0, [255, 255, 255]);
     for (i, tile) in tiles.iter().enumerate() {
         let (r, c) = (i / cols, i % cols);
-        let (x, y) = (gap + c * (tile_size + gap), header + gap + r * (tile_size + gap));
+        let (x, y) = (
+            gap + c * (tile_size + gap),
+            header + gap + r * (tile_size + gap),
+        );
         let img = match &tile.image {
             Some(img) => resize(img, tile_size, tile_size),
             None => {
                 let mut p = Rgb8::filled(tile_size, tile_size, [70, 70, 70]);
-                p.text("missing", 8.0, tile_size as f32 / 2.0 - 8.0, 16.0, [255, 200, 200]);
+                p.text(
+                    "missing",
+                    8.0,
+                    tile_size as f32 / 2.0 - 8.0,
+                    16.0,
+                    [255, 200, 200],
+                );
                 p
             }
         };
         sheet.paste(&img, x, y);
         let px = (tile_size as f32 / 16.0).clamp(11.0, 16.0);
-        sheet.text(&tile.caption, (x + 2) as f32, (y + 2) as f32, px, [255, 255, 160]);
+        sheet.text(
+            &tile.caption,
+            (x + 2) as f32,
+            (y + 2) as f32,
+            px,
+            [255, 255, 160],
+        );
     }
     sheet
 }
@@ -167,8 +194,14 @@ pub fn resize(img: &Rgb8, width: usize, height: usize) -> Rgb8 {
     if img.width == width && img.height == height {
         return img.clone();
     }
-    let buffer = image::RgbImage::from_raw(img.width as u32, img.height as u32, img.data.clone()).expect("image size");
-    let out = image::imageops::resize(&buffer, width as u32, height as u32, image::imageops::FilterType::Triangle);
+    let buffer = image::RgbImage::from_raw(img.width as u32, img.height as u32, img.data.clone())
+        .expect("image size");
+    let out = image::imageops::resize(
+        &buffer,
+        width as u32,
+        height as u32,
+        image::imageops::FilterType::Triangle,
+    );
     Rgb8 {
         width,
         height,
@@ -193,20 +226,47 @@ pub fn signed_difference(a: &[Vec3], b: &[Vec3], width: usize, height: usize, sc
             [(r * 255.0) as u8, (g * 255.0) as u8, (bl * 255.0) as u8]
         })
         .collect();
-    let mut img = Rgb8 { width, height, data };
-    img.text(&format!("a − b, red = +{0}, blue = −{0}", sig3(scale)), 4.0, height as f32 - 22.0, 14.0, [255, 255, 255]);
+    let mut img = Rgb8 {
+        width,
+        height,
+        data,
+    };
+    img.text(
+        &format!("a − b, red = +{0}, blue = −{0}", sig3(scale)),
+        4.0,
+        height as f32 - 22.0,
+        14.0,
+        [255, 255, 255],
+    );
     img
 }
 
 /// The thesis's brightness-amplified difference: `gain · |a − b|`, tone mapped.
-pub fn amplified_difference(a: &[Vec3], b: &[Vec3], width: usize, height: usize, gain: f32, exposure: f32) -> Rgb8 {
-    let diff: Vec<Vec3> = a.iter().zip(b).map(|(x, y)| (*x - *y).abs() * gain).collect();
+pub fn amplified_difference(
+    a: &[Vec3],
+    b: &[Vec3],
+    width: usize,
+    height: usize,
+    gain: f32,
+    exposure: f32,
+) -> Rgb8 {
+    let diff: Vec<Vec3> = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (*x - *y).abs() * gain)
+        .collect();
     let mut img = Rgb8 {
         width,
         height,
         data: to_srgb8(&diff, exposure),
     };
-    img.text(&format!("|a − b| × {}", sig3(gain)), 4.0, height as f32 - 22.0, 14.0, [255, 255, 160]);
+    img.text(
+        &format!("|a − b| × {}", sig3(gain)),
+        4.0,
+        height as f32 - 22.0,
+        14.0,
+        [255, 255, 160],
+    );
     img
 }
 
@@ -235,7 +295,7 @@ mod tests {
         let mut sheet = Rgb8::filled(10, 10, [0, 0, 0]);
         sheet.paste(&Rgb8::filled(3, 3, [9, 9, 9]), 2, 2);
         assert_eq!(sheet.data[(2 * 10 + 2) * 3], 9);
-        assert_eq!(sheet.data[(1 * 10 + 1) * 3], 0);
+        assert_eq!(sheet.data[(10 + 1) * 3], 0);
     }
 
     #[test]

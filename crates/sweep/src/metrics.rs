@@ -37,13 +37,24 @@ pub fn disco(film: &Film) -> DiscoScore {
     let y = Gray {
         width: film.width(),
         height: film.height(),
-        data: film.layer(Layer::Multiple).iter().map(|v| luminance(*v)).collect(),
+        data: film
+            .layer(Layer::Multiple)
+            .iter()
+            .map(|v| luminance(*v))
+            .collect(),
     };
     disco_score(&y, &mask)
 }
 
 /// Errors of `image` against `reference` (linear RGB, same size).
-pub fn compare(image: &[Vec3], reference: &[Vec3], width: usize, height: usize, exposure: f32, reference_key: &str) -> ReferenceMetrics {
+pub fn compare(
+    image: &[Vec3],
+    reference: &[Vec3],
+    width: usize,
+    height: usize,
+    exposure: f32,
+    reference_key: &str,
+) -> ReferenceMetrics {
     let start = Instant::now();
     let n = image.len() as f64;
     let mut se = 0.0f64;
@@ -79,9 +90,13 @@ pub fn ssim(a: &[u8], b: &[u8], width: u32, height: u32) -> f64 {
         let img = image::RgbImage::from_raw(width, height, rgb.to_vec()).expect("image size");
         image::imageops::grayscale(&img)
     };
-    image_compare::gray_similarity_structure(&image_compare::Algorithm::MSSIMSimple, &to_gray(a), &to_gray(b))
-        .map(|s| s.score)
-        .unwrap_or(f64::NAN)
+    image_compare::gray_similarity_structure(
+        &image_compare::Algorithm::MSSIMSimple,
+        &to_gray(a),
+        &to_gray(b),
+    )
+    .map(|s| s.score)
+    .unwrap_or(f64::NAN)
 }
 
 /// Mean FLIP error of two sRGB8 images at the default 67 pixels per degree (0 = identical).
@@ -98,7 +113,9 @@ mod tests {
 
     #[test]
     fn identical_images_have_zero_error() {
-        let img: Vec<Vec3> = (0..64 * 64).map(|i| Vec3::splat((i % 64) as f32 / 64.0)).collect();
+        let img: Vec<Vec3> = (0..64 * 64)
+            .map(|i| Vec3::splat((i % 64) as f32 / 64.0))
+            .collect();
         let m = compare(&img, &img, 64, 64, 0.0, "r");
         assert_eq!(m.rmse, 0.0);
         assert_eq!(m.rel_mse, 0.0);
@@ -108,7 +125,9 @@ mod tests {
 
     #[test]
     fn errors_grow_with_the_difference() {
-        let img: Vec<Vec3> = (0..64 * 64).map(|i| Vec3::splat(0.2 + (i % 64) as f32 / 128.0)).collect();
+        let img: Vec<Vec3> = (0..64 * 64)
+            .map(|i| Vec3::splat(0.2 + (i % 64) as f32 / 128.0))
+            .collect();
         let small: Vec<Vec3> = img.iter().map(|v| *v * 1.05).collect();
         let large: Vec<Vec3> = img.iter().map(|v| *v * 1.5).collect();
         let s = compare(&small, &img, 64, 64, 0.0, "r");

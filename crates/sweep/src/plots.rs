@@ -39,24 +39,36 @@ static FONT: Once = Once::new();
 fn register_font() {
     FONT.call_once(|| {
         // The font is compiled in; failing to parse it is a build defect, not user input.
-        if plotters::style::register_font("sans-serif", FontStyle::Normal, ttf_noto_sans::REGULAR).is_err() {
+        if plotters::style::register_font("sans-serif", FontStyle::Normal, ttf_noto_sans::REGULAR)
+            .is_err()
+        {
             panic!("embedded Noto Sans font failed to parse");
         }
     });
 }
 
 fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
-    let v: Vec<f64> = values.filter(|v| v.is_finite() && (!log || *v > 0.0)).collect();
+    let v: Vec<f64> = values
+        .filter(|v| v.is_finite() && (!log || *v > 0.0))
+        .collect();
     if v.is_empty() {
         return if log { (0.1, 1.0) } else { (0.0, 1.0) };
     }
     let lo = v.iter().cloned().fold(f64::INFINITY, f64::min);
     let hi = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     if log {
-        let (lo, hi) = if hi / lo < 1.01 { (lo / 1.5, hi * 1.5) } else { (lo, hi) };
+        let (lo, hi) = if hi / lo < 1.01 {
+            (lo / 1.5, hi * 1.5)
+        } else {
+            (lo, hi)
+        };
         (lo / 1.15, hi * 1.15)
     } else {
-        let span = if hi - lo < 1e-12 { hi.abs().max(1e-3) } else { hi - lo };
+        let span = if hi - lo < 1e-12 {
+            hi.abs().max(1e-3)
+        } else {
+            hi - lo
+        };
         (lo - 0.06 * span, hi + 0.06 * span)
     }
 }
@@ -65,10 +77,18 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plot: &Plot) -> Resul
 where
     DB::ErrorType: 'static,
 {
-    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("drawing plot `{}`: {e:?}", plot.title);
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| {
+        anyhow::anyhow!("drawing plot `{}`: {e:?}", plot.title)
+    };
     root.fill(&WHITE).map_err(err)?;
-    let xs = plot.series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
-    let ys = plot.series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+    let xs = plot
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.0));
+    let ys = plot
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.1));
     let (x0, x1) = range(xs, plot.log_x);
     let (y0, y1) = range(ys, plot.log_y);
     let mut builder = ChartBuilder::on(root);
@@ -94,17 +114,27 @@ where
                     .points
                     .iter()
                     .copied()
-                    .filter(|(x, y)| x.is_finite() && y.is_finite() && (!plot.log_x || *x > 0.0) && (!plot.log_y || *y > 0.0))
+                    .filter(|(x, y)| {
+                        x.is_finite()
+                            && y.is_finite()
+                            && (!plot.log_x || *x > 0.0)
+                            && (!plot.log_y || *y > 0.0)
+                    })
                     .collect();
                 chart
                     .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
                     .map_err(err)?
                     .label(s.name.clone())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                    });
                 chart
-                    .draw_series(PointSeries::of_element(pts.iter().copied(), 4, colour.filled(), &|c, s, st| {
-                        EmptyElement::at(c) + Circle::new((0, 0), s, st)
-                    }))
+                    .draw_series(PointSeries::of_element(
+                        pts.iter().copied(),
+                        4,
+                        colour.filled(),
+                        &|c, s, st| EmptyElement::at(c) + Circle::new((0, 0), s, st),
+                    ))
                     .map_err(err)?;
             }
             if plot.series.len() > 1 || !plot.series.first().is_some_and(|s| s.name.is_empty()) {
@@ -121,9 +151,21 @@ where
     }
     match (plot.log_x, plot.log_y) {
         (false, false) => finish!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err)?),
-        (true, false) => finish!(builder.build_cartesian_2d((x0..x1).log_scale(), y0..y1).map_err(err)?),
-        (false, true) => finish!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale()).map_err(err)?),
-        (true, true) => finish!(builder.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale()).map_err(err)?),
+        (true, false) => finish!(
+            builder
+                .build_cartesian_2d((x0..x1).log_scale(), y0..y1)
+                .map_err(err)?
+        ),
+        (false, true) => finish!(
+            builder
+                .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+                .map_err(err)?
+        ),
+        (true, true) => finish!(
+            builder
+                .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+                .map_err(err)?
+        ),
     }
     root.present().map_err(err)?;
     Ok(())
@@ -160,8 +202,14 @@ mod tests {
             x_label: "nused".into(),
             y_label: "disco_energy".into(),
             series: vec![
-                Series { name: "t = 80".into(), points: vec![(25.0, 0.1), (50.0, 0.05), (150.0, 0.01)] },
-                Series { name: "t = 6".into(), points: vec![(25.0, 0.02), (50.0, 0.01), (150.0, 0.0)] },
+                Series {
+                    name: "t = 80".into(),
+                    points: vec![(25.0, 0.1), (50.0, 0.05), (150.0, 0.01)],
+                },
+                Series {
+                    name: "t = 6".into(),
+                    points: vec![(25.0, 0.02), (50.0, 0.01), (150.0, 0.0)],
+                },
             ],
             log_x: true,
             log_y: false,
@@ -169,7 +217,10 @@ mod tests {
         write_plot(&dir.path().join("p"), &plot).unwrap();
         let png = image::open(dir.path().join("p.png")).unwrap().into_rgb8();
         assert_eq!(png.dimensions(), (900, 560));
-        assert!(png.pixels().any(|p| p.0 != [255, 255, 255]), "something was drawn");
+        assert!(
+            png.pixels().any(|p| p.0 != [255, 255, 255]),
+            "something was drawn"
+        );
         let svg = std::fs::read_to_string(dir.path().join("p.svg")).unwrap();
         assert!(svg.contains("<svg") && svg.contains("t = 80"));
     }

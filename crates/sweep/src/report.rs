@@ -9,11 +9,18 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use volphot::film::{Film, Layer};
 
-use crate::cells::{CellRecord, METRIC_COLUMNS, OutputDir, ReferenceMetrics, is_done, read_record, read_reference_metrics};
+use crate::cells::{
+    CellRecord, METRIC_COLUMNS, OutputDir, ReferenceMetrics, is_done, read_record,
+    read_reference_metrics,
+};
 use crate::experiment::{Experiment, PlotSpec, SheetSpec};
-use crate::figures::{Rgb8, Tile, amplified_difference, auto_gain, contact_sheet, sig3, signed_difference};
+use crate::figures::{
+    Rgb8, Tile, amplified_difference, auto_gain, contact_sheet, sig3, signed_difference,
+};
 use crate::plots::{Plot, Series, write_plot};
-use crate::runner::{PlanRecord, PlannedCell, compute_reference_metrics, read_plan, read_reference_record};
+use crate::runner::{
+    PlanRecord, PlannedCell, compute_reference_metrics, read_plan, read_reference_record,
+};
 
 /// A table value.
 #[derive(Debug, Clone, PartialEq)]
@@ -40,7 +47,10 @@ fn format_number(v: f64) -> String {
     if v == v.trunc() && v.abs() < 1e15 {
         format!("{v:.0}")
     } else if v.abs() >= 1e-3 && v.abs() < 1e6 {
-        format!("{v:.6}").trim_end_matches('0').trim_end_matches('.').to_string()
+        format!("{v:.6}")
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_string()
     } else {
         format!("{v:.6e}")
     }
@@ -78,7 +88,7 @@ impl Exporter for CsvExporter {
         for row in &table.rows {
             w.write_record(row.iter().map(Field::text))?;
         }
-        Ok(w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?)
+        w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))
     }
 }
 
@@ -109,12 +119,30 @@ impl Exporter for JsonExporter {
 
 impl Exporter for MarkdownExporter {
     fn serialize(&self, table: &Table) -> Result<Vec<u8>> {
-        let cols: Vec<usize> = if self.columns.is_empty() { (0..table.headers.len()).collect() } else { self.columns.clone() };
+        let cols: Vec<usize> = if self.columns.is_empty() {
+            (0..table.headers.len()).collect()
+        } else {
+            self.columns.clone()
+        };
         let mut s = String::new();
-        let _ = writeln!(s, "| {} |", cols.iter().map(|&c| table.headers[c].replace('|', "\\|")).collect::<Vec<_>>().join(" | "));
+        let _ = writeln!(
+            s,
+            "| {} |",
+            cols.iter()
+                .map(|&c| table.headers[c].replace('|', "\\|"))
+                .collect::<Vec<_>>()
+                .join(" | ")
+        );
         let _ = writeln!(s, "|{}", cols.iter().map(|_| "---|").collect::<String>());
         for row in &table.rows {
-            let _ = writeln!(s, "| {} |", cols.iter().map(|&c| row[c].text().replace('|', "\\|")).collect::<Vec<_>>().join(" | "));
+            let _ = writeln!(
+                s,
+                "| {} |",
+                cols.iter()
+                    .map(|&c| row[c].text().replace('|', "\\|"))
+                    .collect::<Vec<_>>()
+                    .join(" | ")
+            );
         }
         Ok(s.into_bytes())
     }
@@ -151,18 +179,30 @@ pub fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
     let mut cells = Vec::new();
     for p in &plan.cells {
         let dir = out.cell(&p.hash);
-        let record = if is_done(&dir) { Some(read_record(&dir)?) } else { None };
+        let record = if is_done(&dir) {
+            Some(read_record(&dir)?)
+        } else {
+            None
+        };
         let mut reference = None;
         if let (Some(r), Some(key)) = (&record, &p.reference) {
             reference = read_reference_metrics(&dir, key);
             if reference.is_none() && read_reference_record(&out.reference(key)).is_ok() {
                 let film = Film::read_exr(&dir.join("film.exr"))?;
-                let shown = crate::metrics::displayed(&film, r.scene.integrator.multiple, r.scene.integrator.emission);
+                let shown = crate::metrics::displayed(
+                    &film,
+                    r.scene.integrator.multiple,
+                    r.scene.integrator.emission,
+                );
                 compute_reference_metrics(out, &p.hash, key, &r.scene, &shown)?;
                 reference = read_reference_metrics(&dir, key);
             }
         }
-        let failure = if record.is_none() { std::fs::read_to_string(out.failure(&p.hash)).ok() } else { None };
+        let failure = if record.is_none() {
+            std::fs::read_to_string(out.failure(&p.hash)).ok()
+        } else {
+            None
+        };
         cells.push(Collected {
             planned: p.clone(),
             record,
@@ -178,9 +218,19 @@ pub fn cells_table(plan: &PlanRecord, cells: &[Collected]) -> Table {
     let mut headers: Vec<String> = vec!["cell".into(), "hash".into(), "status".into()];
     headers.extend(plan.axes.iter().cloned());
     headers.extend(
-        ["method", "seed", "volume", "volume_sha256", "transfer", "sigma_mapping", "version", "host", "reference"]
-            .iter()
-            .map(|s| s.to_string()),
+        [
+            "method",
+            "seed",
+            "volume",
+            "volume_sha256",
+            "transfer",
+            "sigma_mapping",
+            "version",
+            "host",
+            "reference",
+        ]
+        .iter()
+        .map(|s| s.to_string()),
     );
     headers.extend(METRIC_COLUMNS.iter().map(|m| m.header.to_string()));
     let rows = cells
@@ -192,9 +242,16 @@ pub fn cells_table(plan: &PlanRecord, cells: &[Collected]) -> Table {
                 Field::Text(c.status().into()),
             ];
             for axis in &plan.axes {
-                let v = c.planned.axes.iter().find(|(k, _)| k == axis).map(|(_, v)| v);
+                let v = c
+                    .planned
+                    .axes
+                    .iter()
+                    .find(|(k, _)| k == axis)
+                    .map(|(_, v)| v);
                 row.push(match v {
-                    Some(serde_json::Value::Number(n)) => n.as_f64().map_or(Field::Empty, Field::Number),
+                    Some(serde_json::Value::Number(n)) => {
+                        n.as_f64().map_or(Field::Empty, Field::Number)
+                    }
                     Some(serde_json::Value::String(s)) => Field::Text(s.clone()),
                     Some(other) => Field::Text(other.to_string()),
                     None => Field::Empty,
@@ -203,10 +260,18 @@ pub fn cells_table(plan: &PlanRecord, cells: &[Collected]) -> Table {
             let text = |s: Option<String>| s.map_or(Field::Empty, Field::Text);
             let r = c.record.as_ref();
             row.push(Field::Text(c.planned.method.clone()));
-            row.push(r.map_or(Field::Empty, |r| Field::Number(r.scene.integrator.seed as f64)));
-            row.push(text(r.map(|r| match &r.volume {
-                volphot::volume::VolumeSource::File { dataset, path, .. } => dataset.clone().unwrap_or_else(|| path.display().to_string()),
-                volphot::volume::VolumeSource::Phantom { name, parameters } => format!("phantom {name} ({parameters})"),
+            row.push(r.map_or(Field::Empty, |r| {
+                Field::Number(r.scene.integrator.seed as f64)
+            }));
+            row.push(text(r.map(|r| {
+                match &r.volume {
+                    volphot::volume::VolumeSource::File { dataset, path, .. } => dataset
+                        .clone()
+                        .unwrap_or_else(|| path.display().to_string()),
+                    volphot::volume::VolumeSource::Phantom { name, parameters } => {
+                        format!("phantom {name} ({parameters})")
+                    }
+                }
             })));
             row.push(text(r.map(|r| r.volume.identity())));
             row.push(text(r.map(|r| r.transfer.clone())));
@@ -215,7 +280,10 @@ pub fn cells_table(plan: &PlanRecord, cells: &[Collected]) -> Table {
             row.push(text(r.map(|r| r.host.clone())));
             row.push(text(c.planned.reference.clone()));
             for m in METRIC_COLUMNS {
-                row.push(r.and_then(|r| (m.value)(r, c.reference.as_ref())).map_or(Field::Empty, Field::Number));
+                row.push(
+                    r.and_then(|r| (m.value)(r, c.reference.as_ref()))
+                        .map_or(Field::Empty, Field::Number),
+                );
             }
             row
         })
@@ -224,7 +292,10 @@ pub fn cells_table(plan: &PlanRecord, cells: &[Collected]) -> Table {
 }
 
 fn axis_value(c: &PlannedCell, key: &str) -> Option<serde_json::Value> {
-    c.axes.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone())
+    c.axes
+        .iter()
+        .find(|(k, _)| k == key)
+        .map(|(_, v)| v.clone())
 }
 
 fn value_label(v: &serde_json::Value) -> String {
@@ -251,8 +322,14 @@ struct Figures {
 pub fn build_report(out: &OutputDir) -> Result<PathBuf> {
     let (plan, cells) = collect(out)?;
     let table = cells_table(&plan, &cells);
-    volphot::fsutil::write_atomic(&out.root().join("cells.csv"), &CsvExporter.serialize(&table)?)?;
-    volphot::fsutil::write_atomic(&out.root().join("cells.json"), &JsonExporter.serialize(&table)?)?;
+    volphot::fsutil::write_atomic(
+        &out.root().join("cells.csv"),
+        &CsvExporter.serialize(&table)?,
+    )?;
+    volphot::fsutil::write_atomic(
+        &out.root().join("cells.json"),
+        &JsonExporter.serialize(&table)?,
+    )?;
     let experiment = Experiment::load(&out.root().join("experiment.toml"))
         .with_context(|| format!("{}: reading the experiment copy", out.root().display()))?;
     std::fs::create_dir_all(out.figures())?;
@@ -298,13 +375,27 @@ fn distinct_values(cells: &[Collected], key: &str) -> Vec<serde_json::Value> {
     out
 }
 
-fn contact_sheets(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], experiment: &Experiment, figures: &mut Figures) -> Result<()> {
+fn contact_sheets(
+    out: &OutputDir,
+    plan: &PlanRecord,
+    cells: &[Collected],
+    experiment: &Experiment,
+    figures: &mut Figures,
+) -> Result<()> {
     let specs = sheet_specs(plan, experiment);
     if specs.is_empty() {
         // No axes: one image.
         if let Some(c) = cells.first().filter(|c| c.record.is_some()) {
             let img = Rgb8::read_png(&out.cell(&c.planned.hash).join("total.png"))?;
-            let sheet = contact_sheet(&plan.experiment, &[Tile { image: Some(img), caption: c.planned.label.clone() }], 1, 384);
+            let sheet = contact_sheet(
+                &plan.experiment,
+                &[Tile {
+                    image: Some(img),
+                    caption: c.planned.label.clone(),
+                }],
+                1,
+                384,
+            );
             let path = out.figures().join("sheet_total.png");
             sheet.write_png(&path)?;
             figures.sheets.push(("the rendered image".into(), path));
@@ -312,17 +403,28 @@ fn contact_sheets(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], exper
         return Ok(());
     }
     for (si, spec) in specs.iter().enumerate() {
-        let rest: Vec<&String> = plan.axes.iter().filter(|a| **a != spec.rows && Some(*a) != spec.cols.as_ref()).collect();
+        let rest: Vec<&String> = plan
+            .axes
+            .iter()
+            .filter(|a| **a != spec.rows && Some(*a) != spec.cols.as_ref())
+            .collect();
         // One sheet per combination of the remaining axes (at most 12).
         let mut combos: Vec<Vec<(String, serde_json::Value)>> = Vec::new();
         for c in cells {
-            let combo: Vec<(String, serde_json::Value)> = rest.iter().filter_map(|k| axis_value(&c.planned, k).map(|v| ((*k).clone(), v))).collect();
+            let combo: Vec<(String, serde_json::Value)> = rest
+                .iter()
+                .filter_map(|k| axis_value(&c.planned, k).map(|v| ((*k).clone(), v)))
+                .collect();
             if !combos.contains(&combo) {
                 combos.push(combo);
             }
         }
         let row_values = distinct_values(cells, &spec.rows);
-        let col_values = spec.cols.as_ref().map(|k| distinct_values(cells, k)).unwrap_or_else(|| vec![serde_json::Value::Null]);
+        let col_values = spec
+            .cols
+            .as_ref()
+            .map(|k| distinct_values(cells, k))
+            .unwrap_or_else(|| vec![serde_json::Value::Null]);
         let tile = if col_values.len() > 6 { 160 } else { 256 };
         for (ci, combo) in combos.iter().take(12).enumerate() {
             let mut tiles = Vec::new();
@@ -330,17 +432,33 @@ fn contact_sheets(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], exper
                 for cv in &col_values {
                     let found = cells.iter().find(|c| {
                         axis_value(&c.planned, &spec.rows).as_ref() == Some(rv)
-                            && spec.cols.as_ref().is_none_or(|k| axis_value(&c.planned, k).as_ref() == Some(cv))
-                            && combo.iter().all(|(k, v)| axis_value(&c.planned, k).as_ref() == Some(v))
+                            && spec
+                                .cols
+                                .as_ref()
+                                .is_none_or(|k| axis_value(&c.planned, k).as_ref() == Some(cv))
+                            && combo
+                                .iter()
+                                .all(|(k, v)| axis_value(&c.planned, k).as_ref() == Some(v))
                     });
-                    let mut caption = format!("{} = {}", crate::experiment::short_key(&spec.rows), value_label(rv));
+                    let mut caption = format!(
+                        "{} = {}",
+                        crate::experiment::short_key(&spec.rows),
+                        value_label(rv)
+                    );
                     if let Some(k) = &spec.cols {
-                        caption += &format!(", {} = {}", crate::experiment::short_key(k), value_label(cv));
+                        caption += &format!(
+                            ", {} = {}",
+                            crate::experiment::short_key(k),
+                            value_label(cv)
+                        );
                     }
                     let image = match found {
                         Some(c) if c.record.is_some() => {
                             let file = match spec.layer.as_str() {
-                                "diff" => out.figures().join("diff").join(format!("{}_amplified.png", c.planned.hash)),
+                                "diff" => out
+                                    .figures()
+                                    .join("diff")
+                                    .join(format!("{}_amplified.png", c.planned.hash)),
                                 layer => out.cell(&c.planned.hash).join(format!("{layer}.png")),
                             };
                             Rgb8::read_png(&file).ok()
@@ -350,10 +468,25 @@ fn contact_sheets(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], exper
                     tiles.push(Tile { image, caption });
                 }
             }
-            let fixed = combo.iter().map(|(k, v)| format!("{} = {}", crate::experiment::short_key(k), value_label(v))).collect::<Vec<_>>().join(", ");
-            let title = format!("{} — {}{}", plan.experiment, spec.layer, if fixed.is_empty() { String::new() } else { format!(" ({fixed})") });
+            let fixed = combo
+                .iter()
+                .map(|(k, v)| format!("{} = {}", crate::experiment::short_key(k), value_label(v)))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let title = format!(
+                "{} — {}{}",
+                plan.experiment,
+                spec.layer,
+                if fixed.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({fixed})")
+                }
+            );
             let sheet = contact_sheet(&title, &tiles, col_values.len(), tile);
-            let path = out.figures().join(format!("sheet{si}_{}_{ci}.png", spec.layer));
+            let path = out
+                .figures()
+                .join(format!("sheet{si}_{}_{ci}.png", spec.layer));
             sheet.write_png(&path)?;
             figures.sheets.push((title, path));
         }
@@ -363,28 +496,52 @@ fn contact_sheets(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], exper
 
 /// Single vs single + multiple: the difference is the multiple-scattering layer. One gain
 /// for all cells, so amplified images compare across the grid.
-fn layer_differences(out: &OutputDir, cells: &[Collected], experiment: &Experiment, figures: &mut Figures) -> Result<()> {
+fn layer_differences(
+    out: &OutputDir,
+    cells: &[Collected],
+    experiment: &Experiment,
+    figures: &mut Figures,
+) -> Result<()> {
     let Some(spec) = experiment.compare.iter().find(|c| c.kind == "layers") else {
         return Ok(());
     };
     let dir = out.figures().join("diff");
     std::fs::create_dir_all(&dir)?;
     let mut films = Vec::new();
-    for c in cells.iter().filter(|c| c.record.as_ref().is_some_and(|r| r.scene.integrator.multiple)) {
+    for c in cells.iter().filter(|c| {
+        c.record
+            .as_ref()
+            .is_some_and(|r| r.scene.integrator.multiple)
+    }) {
         let film = Film::read_exr(&out.cell(&c.planned.hash).join("film.exr"))?;
         films.push((c, film));
     }
     if films.is_empty() {
         return Ok(());
     }
-    let exposure = films[0].0.record.as_ref().map_or(0.0, |r| r.scene.film.exposure);
+    let exposure = films[0]
+        .0
+        .record
+        .as_ref()
+        .map_or(0.0, |r| r.scene.film.exposure);
     let gain = spec.gain.unwrap_or_else(|| {
-        let all: Vec<f32> = films.iter().flat_map(|(_, f)| f.layer(Layer::Multiple).iter().map(|v| crate::metrics::luminance(*v))).collect();
+        let all: Vec<f32> = films
+            .iter()
+            .flat_map(|(_, f)| {
+                f.layer(Layer::Multiple)
+                    .iter()
+                    .map(|v| crate::metrics::luminance(*v))
+            })
+            .collect();
         auto_gain(&all, exposure)
     });
     let scale = films
         .iter()
-        .flat_map(|(_, f)| f.layer(Layer::Multiple).iter().map(|v| crate::metrics::luminance(*v)))
+        .flat_map(|(_, f)| {
+            f.layer(Layer::Multiple)
+                .iter()
+                .map(|v| crate::metrics::luminance(*v))
+        })
         .fold(0.0f32, f32::max)
         .max(1e-9);
     for (c, film) in &films {
@@ -400,64 +557,142 @@ fn layer_differences(out: &OutputDir, cells: &[Collected], experiment: &Experime
         let single = Rgb8::read_png(&out.cell(&c.planned.hash).join("single.png"))?;
         let total = Rgb8::read_png(&out.cell(&c.planned.hash).join("total.png"))?;
         let tiles = [
-            Tile { image: Some(single), caption: "single scattering".into() },
-            Tile { image: Some(total), caption: "single + multiple".into() },
-            Tile { image: Some(amp), caption: format!("difference × {}", crate::figures::sig3(gain)) },
+            Tile {
+                image: Some(single),
+                caption: "single scattering".into(),
+            },
+            Tile {
+                image: Some(total),
+                caption: "single + multiple".into(),
+            },
+            Tile {
+                image: Some(amp),
+                caption: format!("difference × {}", crate::figures::sig3(gain)),
+            },
         ];
         let sheet = contact_sheet(&c.planned.label, &tiles, 3, 320);
         let path = dir.join(format!("{}_compare.png", c.planned.hash));
         sheet.write_png(&path)?;
-        figures.diffs.push((format!("{}: single vs single + multiple (amplified difference × {})", c.planned.label, crate::figures::sig3(gain)), path));
+        figures.diffs.push((
+            format!(
+                "{}: single vs single + multiple (amplified difference × {})",
+                c.planned.label,
+                crate::figures::sig3(gain)
+            ),
+            path,
+        ));
     }
     Ok(())
 }
 
 /// Cells differing only in one axis: value `a` against value `b`.
-fn axis_comparisons(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], experiment: &Experiment, figures: &mut Figures) -> Result<()> {
-    for (ci, spec) in experiment.compare.iter().enumerate().filter(|(_, c)| c.kind == "axis") {
+fn axis_comparisons(
+    out: &OutputDir,
+    plan: &PlanRecord,
+    cells: &[Collected],
+    experiment: &Experiment,
+    figures: &mut Figures,
+) -> Result<()> {
+    for (ci, spec) in experiment
+        .compare
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.kind == "axis")
+    {
         let axis = spec.axis.clone().unwrap_or_default();
         let b_value = spec.b.as_ref().map(crate::runner::toml_to_json);
         let a_value = spec.a.as_ref().map(crate::runner::toml_to_json);
         let others: Vec<&String> = plan.axes.iter().filter(|k| **k != axis).collect();
         let mut table = Table {
-            headers: vec!["a".into(), "b".into(), "rmse(a, b) [W/(m2 sr)]".into(), "flip(a, b) [1]".into(), "Δ disco_energy [1]".into(), "Δ mean_multiple [W/(m2 sr)]".into()],
+            headers: vec![
+                "a".into(),
+                "b".into(),
+                "rmse(a, b) [W/(m2 sr)]".into(),
+                "flip(a, b) [1]".into(),
+                "Δ disco_energy [1]".into(),
+                "Δ mean_multiple [W/(m2 sr)]".into(),
+            ],
             rows: Vec::new(),
         };
         let dir = out.figures().join(format!("compare{ci}"));
         std::fs::create_dir_all(&dir)?;
         for a in cells.iter().filter(|c| c.record.is_some()) {
-            let Some(av) = axis_value(&a.planned, &axis) else { continue };
+            let Some(av) = axis_value(&a.planned, &axis) else {
+                continue;
+            };
             if Some(&av) == b_value.as_ref() || a_value.as_ref().is_some_and(|x| *x != av) {
                 continue;
             }
             let Some(b) = cells.iter().find(|c| {
                 c.record.is_some()
                     && axis_value(&c.planned, &axis) == b_value
-                    && others.iter().all(|k| axis_value(&c.planned, k) == axis_value(&a.planned, k))
+                    && others
+                        .iter()
+                        .all(|k| axis_value(&c.planned, k) == axis_value(&a.planned, k))
             }) else {
                 continue;
             };
-            let (ra, rb) = (a.record.as_ref().expect("done"), b.record.as_ref().expect("done"));
+            let (ra, rb) = (
+                a.record.as_ref().expect("done"),
+                b.record.as_ref().expect("done"),
+            );
             let fa = Film::read_exr(&out.cell(&a.planned.hash).join("film.exr"))?;
             let fb = Film::read_exr(&out.cell(&b.planned.hash).join("film.exr"))?;
             let (w, h) = (fa.width(), fa.height());
-            let ia = crate::metrics::displayed(&fa, ra.scene.integrator.multiple, ra.scene.integrator.emission);
-            let ib = crate::metrics::displayed(&fb, rb.scene.integrator.multiple, rb.scene.integrator.emission);
-            let m = crate::metrics::compare(&ia, &ib, w, h, ra.scene.film.exposure, &b.planned.hash);
-            let diffs: Vec<f32> = ia.iter().zip(&ib).map(|(x, y)| crate::metrics::luminance((*x - *y).abs())).collect();
+            let ia = crate::metrics::displayed(
+                &fa,
+                ra.scene.integrator.multiple,
+                ra.scene.integrator.emission,
+            );
+            let ib = crate::metrics::displayed(
+                &fb,
+                rb.scene.integrator.multiple,
+                rb.scene.integrator.emission,
+            );
+            let m =
+                crate::metrics::compare(&ia, &ib, w, h, ra.scene.film.exposure, &b.planned.hash);
+            let diffs: Vec<f32> = ia
+                .iter()
+                .zip(&ib)
+                .map(|(x, y)| crate::metrics::luminance((*x - *y).abs()))
+                .collect();
             let scale = diffs.iter().cloned().fold(0.0f32, f32::max).max(1e-9);
-            let gain = spec.gain.unwrap_or_else(|| auto_gain(&diffs, ra.scene.film.exposure));
+            let gain = spec
+                .gain
+                .unwrap_or_else(|| auto_gain(&diffs, ra.scene.film.exposure));
             let signed = signed_difference(&ia, &ib, w, h, scale);
             let amp = amplified_difference(&ia, &ib, w, h, gain, ra.scene.film.exposure);
             let tiles = [
-                Tile { image: Rgb8::read_png(&out.cell(&a.planned.hash).join("total.png")).ok(), caption: format!("a: {} = {}", crate::experiment::short_key(&axis), value_label(&axis_value(&a.planned, &axis).unwrap_or_default())) },
-                Tile { image: Rgb8::read_png(&out.cell(&b.planned.hash).join("total.png")).ok(), caption: format!("b: {} = {}", crate::experiment::short_key(&axis), value_label(b_value.as_ref().unwrap_or(&serde_json::Value::Null))) },
-                Tile { image: Some(signed), caption: "a − b (signed)".into() },
-                Tile { image: Some(amp), caption: format!("|a − b| × {}", sig3(gain)) },
+                Tile {
+                    image: Rgb8::read_png(&out.cell(&a.planned.hash).join("total.png")).ok(),
+                    caption: format!(
+                        "a: {} = {}",
+                        crate::experiment::short_key(&axis),
+                        value_label(&axis_value(&a.planned, &axis).unwrap_or_default())
+                    ),
+                },
+                Tile {
+                    image: Rgb8::read_png(&out.cell(&b.planned.hash).join("total.png")).ok(),
+                    caption: format!(
+                        "b: {} = {}",
+                        crate::experiment::short_key(&axis),
+                        value_label(b_value.as_ref().unwrap_or(&serde_json::Value::Null))
+                    ),
+                },
+                Tile {
+                    image: Some(signed),
+                    caption: "a − b (signed)".into(),
+                },
+                Tile {
+                    image: Some(amp),
+                    caption: format!("|a − b| × {}", sig3(gain)),
+                },
             ];
             let path = dir.join(format!("{}_vs_{}.png", a.planned.hash, b.planned.hash));
             contact_sheet(&a.planned.label, &tiles, 4, 256).write_png(&path)?;
-            figures.diffs.push((format!("{} vs {}", a.planned.label, b.planned.label), path));
+            figures
+                .diffs
+                .push((format!("{} vs {}", a.planned.label, b.planned.label), path));
             table.rows.push(vec![
                 Field::Text(a.planned.label.clone()),
                 Field::Text(b.planned.label.clone()),
@@ -467,7 +702,16 @@ fn axis_comparisons(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], exp
                 Field::Number(ra.mean_multiple - rb.mean_multiple),
             ]);
         }
-        figures.comparisons.push((format!("`{axis}`: {} vs {}", a_value.as_ref().map_or("each value".to_string(), value_label), b_value.as_ref().map_or(String::new(), value_label)), table));
+        figures.comparisons.push((
+            format!(
+                "`{axis}`: {} vs {}",
+                a_value
+                    .as_ref()
+                    .map_or("each value".to_string(), value_label),
+                b_value.as_ref().map_or(String::new(), value_label)
+            ),
+            table,
+        ));
     }
     Ok(())
 }
@@ -484,8 +728,19 @@ fn plot_specs(plan: &PlanRecord, cells: &[Collected], experiment: &Experiment) -
             continue;
         }
         let positive = values.iter().all(|v| numeric(v).is_some_and(|n| n > 0.0));
-        let spread = values.iter().filter_map(numeric).fold(f64::NEG_INFINITY, f64::max) / values.iter().filter_map(numeric).fold(f64::INFINITY, f64::min);
-        let mut y = vec!["disco_energy".to_string(), "ms_share".into(), "time_render".into()];
+        let spread = values
+            .iter()
+            .filter_map(numeric)
+            .fold(f64::NEG_INFINITY, f64::max)
+            / values
+                .iter()
+                .filter_map(numeric)
+                .fold(f64::INFINITY, f64::min);
+        let mut y = vec![
+            "disco_energy".to_string(),
+            "ms_share".into(),
+            "time_render".into(),
+        ];
         if has_reference {
             y.insert(0, "rmse".into());
             y.insert(1, "flip".into());
@@ -501,24 +756,49 @@ fn plot_specs(plan: &PlanRecord, cells: &[Collected], experiment: &Experiment) -
     specs
 }
 
-fn plots(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], experiment: &Experiment, figures: &mut Figures) -> Result<()> {
+fn plots(
+    out: &OutputDir,
+    plan: &PlanRecord,
+    cells: &[Collected],
+    experiment: &Experiment,
+    figures: &mut Figures,
+) -> Result<()> {
     let dir = out.figures().join("plots");
     std::fs::create_dir_all(&dir)?;
     for spec in plot_specs(plan, cells, experiment) {
         for metric in &spec.y {
-            let Some(column) = METRIC_COLUMNS.iter().find(|m| m.key == metric) else { continue };
+            let Some(column) = METRIC_COLUMNS.iter().find(|m| m.key == metric) else {
+                continue;
+            };
             // series value → x → values (averaged over the remaining axes).
             let mut lines: BTreeMap<String, BTreeMap<i64, (f64, Vec<f64>)>> = BTreeMap::new();
             for c in cells {
-                let (Some(r), Some(x)) = (&c.record, axis_value(&c.planned, &spec.x).as_ref().and_then(numeric)) else { continue };
-                let Some(y) = (column.value)(r, c.reference.as_ref()) else { continue };
+                let (Some(r), Some(x)) = (
+                    &c.record,
+                    axis_value(&c.planned, &spec.x).as_ref().and_then(numeric),
+                ) else {
+                    continue;
+                };
+                let Some(y) = (column.value)(r, c.reference.as_ref()) else {
+                    continue;
+                };
                 let name = spec
                     .series
                     .as_ref()
-                    .and_then(|s| axis_value(&c.planned, s).map(|v| format!("{} = {}", crate::experiment::short_key(s), value_label(&v))))
+                    .and_then(|s| {
+                        axis_value(&c.planned, s).map(|v| {
+                            format!("{} = {}", crate::experiment::short_key(s), value_label(&v))
+                        })
+                    })
                     .unwrap_or_default();
                 let key = (x * 1e6).round() as i64;
-                lines.entry(name).or_default().entry(key).or_insert((x, Vec::new())).1.push(y);
+                lines
+                    .entry(name)
+                    .or_default()
+                    .entry(key)
+                    .or_insert((x, Vec::new()))
+                    .1
+                    .push(y);
             }
             if lines.is_empty() {
                 continue;
@@ -527,12 +807,23 @@ fn plots(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], experiment: &E
                 .into_iter()
                 .map(|(name, pts)| Series {
                     name,
-                    points: pts.into_values().map(|(x, ys)| (x, ys.iter().sum::<f64>() / ys.len() as f64)).collect(),
+                    points: pts
+                        .into_values()
+                        .map(|(x, ys)| (x, ys.iter().sum::<f64>() / ys.len() as f64))
+                        .collect(),
                 })
                 .collect();
             let averaged = plan.axes.len() > 1 + usize::from(spec.series.is_some());
             let plot = Plot {
-                title: format!("{metric} vs {}{}", crate::experiment::short_key(&spec.x), if averaged { " (mean over other axes)" } else { "" }),
+                title: format!(
+                    "{metric} vs {}{}",
+                    crate::experiment::short_key(&spec.x),
+                    if averaged {
+                        " (mean over other axes)"
+                    } else {
+                        ""
+                    }
+                ),
                 x_label: spec.x.clone(),
                 y_label: column.header.to_string(),
                 series,
@@ -541,17 +832,29 @@ fn plots(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], experiment: &E
             };
             let stem = dir.join(format!("{}_vs_{}", metric, spec.x.replace('.', "_")));
             write_plot(&stem, &plot)?;
-            figures.plots.push((plot.title.clone(), stem.with_extension("png")));
+            figures
+                .plots
+                .push((plot.title.clone(), stem.with_extension("png")));
         }
     }
     Ok(())
 }
 
 fn rel(root: &Path, path: &Path) -> String {
-    path.strip_prefix(root).unwrap_or(path).display().to_string()
+    path.strip_prefix(root)
+        .unwrap_or(path)
+        .display()
+        .to_string()
 }
 
-fn markdown(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], table: &Table, experiment: &Experiment, figures: &Figures) -> String {
+fn markdown(
+    out: &OutputDir,
+    plan: &PlanRecord,
+    cells: &[Collected],
+    table: &Table,
+    experiment: &Experiment,
+    figures: &Figures,
+) -> String {
     let root = out.root();
     let mut s = String::new();
     let done = cells.iter().filter(|c| c.record.is_some()).count();
@@ -560,18 +863,46 @@ fn markdown(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], table: &Tab
     if !experiment.description.is_empty() {
         let _ = writeln!(s, "{}\n", experiment.description.trim());
     }
-    let _ = writeln!(s, "- cells: {} planned, {done} done, {} failed, {} pending", cells.len(), failed.len(), cells.len() - done - failed.len());
-    let _ = writeln!(s, "- quality preset: `{}`; program version {}", plan.quality, plan.version);
-    let _ = writeln!(s, "- experiment file: `{}` (sha256 `{}`)", plan.experiment_file.display(), plan.experiment_sha256);
+    let _ = writeln!(
+        s,
+        "- cells: {} planned, {done} done, {} failed, {} pending",
+        cells.len(),
+        failed.len(),
+        cells.len() - done - failed.len()
+    );
+    let _ = writeln!(
+        s,
+        "- quality preset: `{}`; program version {}",
+        plan.quality, plan.version
+    );
+    let _ = writeln!(
+        s,
+        "- experiment file: `{}` (sha256 `{}`)",
+        plan.experiment_file.display(),
+        plan.experiment_sha256
+    );
     let _ = writeln!(s, "- command: `{}`", plan.command.join(" "));
-    let _ = writeln!(s, "- rerun: `sweep run {} --output {}` (finished cells are skipped); regenerate this report: `sweep report {}`\n", plan.experiment_file.display(), root.display(), root.display());
+    let _ = writeln!(
+        s,
+        "- rerun: `sweep run {} --output {}` (finished cells are skipped); regenerate this report: `sweep report {}`\n",
+        plan.experiment_file.display(),
+        root.display(),
+        root.display()
+    );
 
     let _ = writeln!(s, "## Grid\n");
     for axis in &plan.axes {
-        let values: Vec<String> = distinct_values(cells, axis).iter().map(value_label).collect();
+        let values: Vec<String> = distinct_values(cells, axis)
+            .iter()
+            .map(value_label)
+            .collect();
         let _ = writeln!(s, "- `{axis}`: {}", values.join(", "));
     }
-    let marches: std::collections::HashSet<&String> = cells.iter().filter(|c| c.record.is_some()).map(|c| &c.planned.march_key).collect();
+    let marches: std::collections::HashSet<&String> = cells
+        .iter()
+        .filter(|c| c.record.is_some())
+        .map(|c| &c.planned.march_key)
+        .collect();
     let maps: usize = cells
         .iter()
         .filter_map(|c| c.record.as_ref())
@@ -579,7 +910,11 @@ fn markdown(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], table: &Tab
         .map(|r| 1.0 / r.timings.map_shared_by as f64)
         .sum::<f64>()
         .round() as usize;
-    let with_maps = cells.iter().filter_map(|c| c.record.as_ref()).filter(|r| r.timings.map_shared_by > 0).count();
+    let with_maps = cells
+        .iter()
+        .filter_map(|c| c.record.as_ref())
+        .filter(|r| r.timings.map_shared_by > 0)
+        .count();
     let _ = writeln!(
         s,
         "\nShared work: {done} finished cells came from {} march(es) (one eye-ray pass each) and about {maps} photon map(s) for the {with_maps} cells with multiple scattering; rendered one by one they would need {done} marches and {with_maps} maps.\n",
@@ -597,12 +932,19 @@ fn markdown(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], table: &Tab
     for v in volumes {
         let _ = writeln!(s, "- volume: {v}");
     }
-    let mut refs: Vec<&String> = cells.iter().filter_map(|c| c.planned.reference.as_ref()).collect();
+    let mut refs: Vec<&String> = cells
+        .iter()
+        .filter_map(|c| c.planned.reference.as_ref())
+        .collect();
     refs.sort();
     refs.dedup();
     for key in refs {
         if let Ok(r) = read_reference_record(&out.reference(key)) {
-            let _ = writeln!(s, "- reference `{key}`: {} with {} samples per pixel ({:.1} s)", r.method, r.passes, r.seconds);
+            let _ = writeln!(
+                s,
+                "- reference `{key}`: {} with {} samples per pixel ({:.1} s)",
+                r.method, r.passes, r.seconds
+            );
         } else {
             let _ = writeln!(s, "- reference `{key}`: not rendered");
         }
@@ -621,12 +963,32 @@ fn markdown(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], table: &Tab
     section("Difference images", &figures.diffs);
     for (title, t) in &figures.comparisons {
         let _ = writeln!(s, "\n### Comparison {title}\n");
-        let _ = writeln!(s, "{}", String::from_utf8_lossy(&MarkdownExporter { columns: vec![] }.serialize(t).unwrap_or_default()));
+        let _ = writeln!(
+            s,
+            "{}",
+            String::from_utf8_lossy(
+                &MarkdownExporter { columns: vec![] }
+                    .serialize(t)
+                    .unwrap_or_default()
+            )
+        );
     }
     let _ = writeln!(s, "\n## Cells\n");
     let mut columns: Vec<usize> = vec![0, 2];
     columns.extend(3..3 + plan.axes.len());
-    for key in ["empirical_mfp", "nominal_mfp", "mean_single", "mean_multiple", "ms_share", "rmse", "flip", "ssim", "disco_energy", "disco_blobs", "time_render"] {
+    for key in [
+        "empirical_mfp",
+        "nominal_mfp",
+        "mean_single",
+        "mean_multiple",
+        "ms_share",
+        "rmse",
+        "flip",
+        "ssim",
+        "disco_energy",
+        "disco_blobs",
+        "time_render",
+    ] {
         if let Some(i) = METRIC_COLUMNS.iter().position(|m| m.key == key) {
             let col = table.headers.len() - METRIC_COLUMNS.len() + i;
             if table.rows.iter().any(|r| r[col] != Field::Empty) {
@@ -634,13 +996,37 @@ fn markdown(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], table: &Tab
             }
         }
     }
-    let _ = writeln!(s, "{}", String::from_utf8_lossy(&MarkdownExporter { columns }.serialize(table).unwrap_or_default()));
-    let _ = writeln!(s, "All columns, with units: [cells.csv](cells.csv) ([cells.json](cells.json)).\n");
+    let _ = writeln!(
+        s,
+        "{}",
+        String::from_utf8_lossy(
+            &MarkdownExporter { columns }
+                .serialize(table)
+                .unwrap_or_default()
+        )
+    );
+    let _ = writeln!(
+        s,
+        "All columns, with units: [cells.csv](cells.csv) ([cells.json](cells.json)).\n"
+    );
     if !failed.is_empty() {
         let _ = writeln!(s, "## Failures\n");
         for c in failed {
-            let first = c.failure.as_deref().unwrap_or("").lines().take(6).collect::<Vec<_>>().join("\n    ");
-            let _ = writeln!(s, "- cell {} ({}): see `{}`\n\n    {first}\n", c.planned.index, c.planned.label, rel(root, &out.failure(&c.planned.hash)));
+            let first = c
+                .failure
+                .as_deref()
+                .unwrap_or("")
+                .lines()
+                .take(6)
+                .collect::<Vec<_>>()
+                .join("\n    ");
+            let _ = writeln!(
+                s,
+                "- cell {} ({}): see `{}`\n\n    {first}\n",
+                c.planned.index,
+                c.planned.label,
+                rel(root, &out.failure(&c.planned.hash))
+            );
         }
     }
     s
@@ -649,7 +1035,11 @@ fn markdown(out: &OutputDir, plan: &PlanRecord, cells: &[Collected], table: &Tab
 /// Turns the report's Markdown into a self-contained HTML page (images inlined).
 fn html(root: &Path, markdown: &str) -> Result<String> {
     use base64::Engine as _;
-    let esc = |t: &str| t.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+    let esc = |t: &str| {
+        t.replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('>', "&gt;")
+    };
     let inline = |t: &str| -> String {
         // `code`, [text](link)
         let mut out = String::new();
@@ -664,8 +1054,12 @@ fn html(root: &Path, markdown: &str) -> Result<String> {
         let mut result = String::new();
         let mut rest = out.as_str();
         while let Some(start) = rest.find('[') {
-            let Some(mid) = rest[start..].find("](") else { break };
-            let Some(end) = rest[start + mid..].find(')') else { break };
+            let Some(mid) = rest[start..].find("](") else {
+                break;
+            };
+            let Some(end) = rest[start + mid..].find(')') else {
+                break;
+            };
             result += &rest[..start];
             let text = &rest[start + 1..start + mid];
             let href = &rest[start + mid + 2..start + mid + end];
@@ -698,21 +1092,32 @@ fn html(root: &Path, markdown: &str) -> Result<String> {
         } else if let Some(img) = trimmed.strip_prefix("![") {
             let (alt, src) = img.split_once("](").unwrap_or(("", ""));
             let src = src.trim_end_matches(')');
-            let bytes = std::fs::read(root.join(src)).with_context(|| format!("embedding {src}"))?;
+            let bytes =
+                std::fs::read(root.join(src)).with_context(|| format!("embedding {src}"))?;
             let data = base64::engine::general_purpose::STANDARD.encode(bytes);
-            body += &format!("<figure><img alt=\"{}\" src=\"data:image/png;base64,{data}\"></figure>\n", esc(alt));
+            body += &format!(
+                "<figure><img alt=\"{}\" src=\"data:image/png;base64,{data}\"></figure>\n",
+                esc(alt)
+            );
         } else if trimmed.starts_with('|') {
             let is_rule = trimmed.chars().all(|c| matches!(c, '|' | '-' | ' '));
             if is_rule {
                 continue;
             }
-            let header = !in_table && lines.get(li + 1).is_some_and(|n| n.trim().starts_with("|-") || n.trim().starts_with("|--"));
+            let header = !in_table
+                && lines
+                    .get(li + 1)
+                    .is_some_and(|n| n.trim().starts_with("|-") || n.trim().starts_with("|--"));
             if !in_table {
                 body += "<table>\n";
                 in_table = true;
             }
             let tag = if header { "th" } else { "td" };
-            let cells: Vec<String> = trimmed.trim_matches('|').split(" | ").map(|c| format!("<{tag}>{}</{tag}>", inline(c.trim()))).collect();
+            let cells: Vec<String> = trimmed
+                .trim_matches('|')
+                .split(" | ")
+                .map(|c| format!("<{tag}>{}</{tag}>", inline(c.trim())))
+                .collect();
             body += &format!("<tr>{}</tr>\n", cells.join(""));
         } else if let Some(item) = trimmed.strip_prefix("- ") {
             if !in_list {
@@ -721,7 +1126,10 @@ fn html(root: &Path, markdown: &str) -> Result<String> {
             }
             body += &format!("<li>{}</li>\n", inline(item));
         } else if trimmed.starts_with('*') && trimmed.ends_with('*') && trimmed.len() > 2 {
-            body += &format!("<p class=\"caption\">{}</p>\n", inline(trimmed.trim_matches('*')));
+            body += &format!(
+                "<p class=\"caption\">{}</p>\n",
+                inline(trimmed.trim_matches('*'))
+            );
         } else if !trimmed.is_empty() {
             let tag = if line.starts_with("    ") { "pre" } else { "p" };
             body += &format!("<{tag}>{}</{tag}>\n", inline(trimmed));
@@ -750,7 +1158,11 @@ mod tests {
         Table {
             headers: vec!["cell".into(), "name".into(), "rmse [W/(m2 sr)]".into()],
             rows: vec![
-                vec![Field::Number(0.0), Field::Text("a, b".into()), Field::Number(0.125)],
+                vec![
+                    Field::Number(0.0),
+                    Field::Text("a, b".into()),
+                    Field::Number(0.125),
+                ],
                 vec![Field::Number(1.0), Field::Text("c".into()), Field::Empty],
             ],
         }
@@ -760,9 +1172,17 @@ mod tests {
     fn exporters_write_every_row() {
         let csv = String::from_utf8(CsvExporter.serialize(&table()).unwrap()).unwrap();
         assert_eq!(csv, "cell,name,rmse [W/(m2 sr)]\n0,\"a, b\",0.125\n1,c,\n");
-        let json: serde_json::Value = serde_json::from_slice(&JsonExporter.serialize(&table()).unwrap()).unwrap();
+        let json: serde_json::Value =
+            serde_json::from_slice(&JsonExporter.serialize(&table()).unwrap()).unwrap();
         assert_eq!(json[1]["rmse [W/(m2 sr)]"], serde_json::Value::Null);
-        let md = String::from_utf8(MarkdownExporter { columns: vec![0, 2] }.serialize(&table()).unwrap()).unwrap();
+        let md = String::from_utf8(
+            MarkdownExporter {
+                columns: vec![0, 2],
+            }
+            .serialize(&table())
+            .unwrap(),
+        )
+        .unwrap();
         assert!(md.starts_with("| cell | rmse [W/(m2 sr)] |\n|---|---|\n| 0 | 0.125 |"));
     }
 }

@@ -32,7 +32,10 @@ use volphot::settings::Method;
 use volphot::volume::Volume;
 use volphot::volume::registry::SearchPath;
 
-use crate::cells::{CellRecord, CellTimings, OutputDir, StagedDir, VERSION, cell_hash, clean_stale, is_done, volume_identity};
+use crate::cells::{
+    CellRecord, CellTimings, OutputDir, StagedDir, VERSION, cell_hash, clean_stale, is_done,
+    volume_identity,
+};
 use crate::cli::Quality;
 use crate::experiment::{CellSpec, Experiment, ReferenceSpec, set_key};
 use crate::metrics;
@@ -123,7 +126,10 @@ pub fn toml_to_json(v: &toml::Value) -> serde_json::Value {
 }
 
 fn axes_json(spec: &CellSpec) -> Vec<(String, serde_json::Value)> {
-    spec.axes.iter().map(|(k, v)| (k.clone(), toml_to_json(v))).collect()
+    spec.axes
+        .iter()
+        .map(|(k, v)| (k.clone(), toml_to_json(v)))
+        .collect()
 }
 
 /// Parameters that only change the multiple-scattering layer (cells differing only in
@@ -174,7 +180,7 @@ pub fn reference_params(params: &SceneParams, spec: &ReferenceSpec) -> Result<Sc
         multiple: true,
         emission: true,
         // Independent noise: a seed no cell uses by default.
-        seed: 0x5eed_0f_5eed,
+        seed: 0x005e_ed0f_5eed,
         ..Default::default()
     };
     match spec.method.as_str() {
@@ -200,14 +206,19 @@ pub fn reference_params(params: &SceneParams, spec: &ReferenceSpec) -> Result<Sc
         set_key(&mut table, &k, v).map_err(anyhow::Error::msg)?;
     }
     let text = toml::to_string(&table)?;
-    let p: SceneParams = toml::from_str(&text).map_err(|e| anyhow::anyhow!("reference scene: {}", e.message()))?;
+    let p: SceneParams =
+        toml::from_str(&text).map_err(|e| anyhow::anyhow!("reference scene: {}", e.message()))?;
     volphot::scene::validate_params(&p).map_err(|e| anyhow::anyhow!("reference scene: {e}"))?;
     Ok(p)
 }
 
 fn flatten(table: &toml::Table, prefix: &str, out: &mut Vec<(String, toml::Value)>) {
     for (k, v) in table {
-        let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
         match v {
             toml::Value::Table(t) if k != "phantom" => flatten(t, &key, out),
             other => out.push((key, other.clone())),
@@ -237,12 +248,17 @@ pub fn parse_selection(text: &str, planned: usize) -> Result<Vec<usize>> {
             None => (part, part),
         };
         let parse = |s: &str| -> Result<usize> {
-            s.parse::<usize>()
-                .map_err(|_| anyhow::anyhow!("--cells `{text}`: `{s}` is not a cell index (expected e.g. 3,7-9)"))
+            s.parse::<usize>().map_err(|_| {
+                anyhow::anyhow!("--cells `{text}`: `{s}` is not a cell index (expected e.g. 3,7-9)")
+            })
         };
         let (a, b) = (parse(a)?, parse(b)?);
         anyhow::ensure!(a <= b, "--cells `{text}`: range {a}-{b} is reversed");
-        anyhow::ensure!(b < planned, "--cells `{text}`: cell {b} does not exist (the plan has cells 0-{})", planned.saturating_sub(1));
+        anyhow::ensure!(
+            b < planned,
+            "--cells `{text}`: cell {b} does not exist (the plan has cells 0-{})",
+            planned.saturating_sub(1)
+        );
         out.extend(a..=b);
     }
     anyhow::ensure!(!out.is_empty(), "--cells `{text}`: no cells selected");
@@ -255,7 +271,12 @@ pub fn parse_selection(text: &str, planned: usize) -> Result<Vec<usize>> {
 pub fn parse_shard(text: &str, planned: usize) -> Result<Vec<usize>> {
     let (i, n) = text
         .split_once('/')
-        .and_then(|(i, n)| Some((i.trim().parse::<usize>().ok()?, n.trim().parse::<usize>().ok()?)))
+        .and_then(|(i, n)| {
+            Some((
+                i.trim().parse::<usize>().ok()?,
+                n.trim().parse::<usize>().ok()?,
+            ))
+        })
         .ok_or_else(|| anyhow::anyhow!("--shard `{text}`: expected i/n, e.g. 2/8"))?;
     anyhow::ensure!(n >= 1 && i < n, "--shard `{text}`: need 0 <= i < n");
     Ok((0..planned).filter(|c| c % n == i).collect())
@@ -268,10 +289,20 @@ pub struct FolderLock {
 
 /// Locks the output folder: exclusively for a full run, shared for a run of selected cells.
 pub fn lock_folder(out: &OutputDir, exclusive: bool) -> Result<FolderLock> {
-    std::fs::create_dir_all(out.root()).with_context(|| format!("creating {}", out.root().display()))?;
+    std::fs::create_dir_all(out.root())
+        .with_context(|| format!("creating {}", out.root().display()))?;
     let path = out.root().join(".lock");
-    let file = File::options().create(true).truncate(false).write(true).open(&path).with_context(|| format!("opening {}", path.display()))?;
-    let result = if exclusive { file.try_lock() } else { file.try_lock_shared() };
+    let file = File::options()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .with_context(|| format!("opening {}", path.display()))?;
+    let result = if exclusive {
+        file.try_lock()
+    } else {
+        file.try_lock_shared()
+    };
     match result {
         Ok(()) => Ok(FolderLock { _file: file }),
         Err(std::fs::TryLockError::WouldBlock) => anyhow::bail!(
@@ -279,22 +310,35 @@ pub fn lock_folder(out: &OutputDir, exclusive: bool) -> Result<FolderLock> {
             out.root().display(),
             path.display()
         ),
-        Err(std::fs::TryLockError::Error(e)) => Err(e).with_context(|| format!("locking {}", path.display())),
+        Err(std::fs::TryLockError::Error(e)) => {
+            Err(e).with_context(|| format!("locking {}", path.display()))
+        }
     }
 }
 
 /// Writes the plan record (idempotent: the same plan writes the same content).
-pub fn write_plan(exp: &Experiment, cells: &[CellSpec], hashes: &[String], out: &OutputDir, quality: Quality) -> Result<PlanRecord> {
+pub fn write_plan(
+    exp: &Experiment,
+    cells: &[CellSpec],
+    hashes: &[String],
+    out: &OutputDir,
+    quality: Quality,
+) -> Result<PlanRecord> {
     let mut planned = Vec::new();
     for (spec, hash) in cells.iter().zip(hashes) {
-        let reference = exp.reference.as_ref().map(|r| reference_key(spec, r)).transpose()?;
+        let reference = exp
+            .reference
+            .as_ref()
+            .map(|r| reference_key(spec, r))
+            .transpose()?;
         planned.push(PlannedCell {
             index: spec.index,
             hash: hash.clone(),
             label: spec.label(),
             axes: axes_json(spec),
             reference,
-            march_key: volphot::checksum::sha256_bytes(march_key(&spec.params).as_bytes())[..12].to_string(),
+            march_key: volphot::checksum::sha256_bytes(march_key(&spec.params).as_bytes())[..12]
+                .to_string(),
             method: match spec.params.integrator.method {
                 Method::Photon => "photon".into(),
                 Method::Reference => "reference".into(),
@@ -312,14 +356,21 @@ pub fn write_plan(exp: &Experiment, cells: &[CellSpec], hashes: &[String], out: 
         cells: planned,
     };
     volphot::fsutil::write_atomic(&out.root().join("experiment.toml"), exp.source.as_bytes())?;
-    volphot::fsutil::write_atomic(&out.plan(), serde_json::to_string_pretty(&record)?.as_bytes())?;
+    volphot::fsutil::write_atomic(
+        &out.plan(),
+        serde_json::to_string_pretty(&record)?.as_bytes(),
+    )?;
     Ok(record)
 }
 
 /// Reads `plan.json` of an output folder.
 pub fn read_plan(out: &OutputDir) -> Result<PlanRecord> {
-    let text = std::fs::read_to_string(out.plan())
-        .with_context(|| format!("{}: no plan.json (is this the output folder of a sweep run?)", out.root().display()))?;
+    let text = std::fs::read_to_string(out.plan()).with_context(|| {
+        format!(
+            "{}: no plan.json (is this the output folder of a sweep run?)",
+            out.root().display()
+        )
+    })?;
     serde_json::from_str(&text).with_context(|| format!("parsing {}", out.plan().display()))
 }
 
@@ -332,14 +383,26 @@ struct Caches {
 
 impl Caches {
     fn scene(&self, params: &SceneParams, base: &Path, search: &SearchPath) -> Result<Scene> {
-        let volume_key = format!("{}|{}", base.display(), serde_json::to_string(&params.volume)?);
+        let volume_key = format!(
+            "{}|{}",
+            base.display(),
+            serde_json::to_string(&params.volume)?
+        );
         let volume = {
-            let cached = self.volumes.lock().expect("cache lock").get(&volume_key).cloned();
+            let cached = self
+                .volumes
+                .lock()
+                .expect("cache lock")
+                .get(&volume_key)
+                .cloned();
             match cached {
                 Some(v) => v,
                 None => {
                     let v = Arc::new(load_volume(&params.volume, base, search)?);
-                    self.volumes.lock().expect("cache lock").insert(volume_key.clone(), Arc::clone(&v));
+                    self.volumes
+                        .lock()
+                        .expect("cache lock")
+                        .insert(volume_key.clone(), Arc::clone(&v));
                     v
                 }
             }
@@ -351,18 +414,34 @@ impl Caches {
             serde_json::to_string(&params.phase)?
         );
         let medium = {
-            let cached = self.media.lock().expect("cache lock").get(&medium_key).cloned();
+            let cached = self
+                .media
+                .lock()
+                .expect("cache lock")
+                .get(&medium_key)
+                .cloned();
             match cached {
                 Some(m) => m,
                 None => {
                     let m = Arc::new(build_medium(params, &volume, base)?);
-                    self.media.lock().expect("cache lock").insert(medium_key, Arc::clone(&m));
+                    self.media
+                        .lock()
+                        .expect("cache lock")
+                        .insert(medium_key, Arc::clone(&m));
                     m
                 }
             }
         };
         Ok(Scene::assemble(params, medium, volume.source().clone())?)
     }
+}
+
+/// What rendering one march group produced.
+#[derive(Default)]
+struct GroupOutcome {
+    rendered: usize,
+    photon_maps: usize,
+    failures: Vec<(usize, String)>,
 }
 
 /// A cell to render now.
@@ -373,7 +452,13 @@ struct Job {
 }
 
 /// Renders the selected, unfinished cells of `cells` into `out`.
-pub fn render_cells(exp: &Experiment, cells: &[CellSpec], hashes: &[String], plan: &PlanRecord, opts: &RunOptions) -> Result<RunSummary> {
+pub fn render_cells(
+    exp: &Experiment,
+    cells: &[CellSpec],
+    hashes: &[String],
+    plan: &PlanRecord,
+    opts: &RunOptions,
+) -> Result<RunSummary> {
     let start = Instant::now();
     let out = OutputDir::new(&opts.output);
     std::fs::create_dir_all(out.root().join("cells"))?;
@@ -436,30 +521,52 @@ pub fn render_cells(exp: &Experiment, cells: &[CellSpec], hashes: &[String], pla
     for job in jobs {
         let key = march_key(&job.spec.params);
         let shareable = exp.share && job.spec.params.integrator.method == Method::Photon;
-        match groups.iter_mut().find(|g| shareable && exp.share && g[0].spec.params.integrator.method == Method::Photon && march_key(&g[0].spec.params) == key) {
+        match groups.iter_mut().find(|g| {
+            shareable
+                && exp.share
+                && g[0].spec.params.integrator.method == Method::Photon
+                && march_key(&g[0].spec.params) == key
+        }) {
             Some(g) => g.push(job),
             None => groups.push(vec![job]),
         }
     }
     let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<(usize, usize, Vec<(usize, String)>, usize)>> = Mutex::new(Vec::new());
-    let render_group = |group: &[Job]| -> (usize, usize, Vec<(usize, String)>, usize) {
-        let bar = crate::progress::bar(&multi, group[0].spec.params.camera.resolution[1] as u64, &format!("cell {}", group[0].spec.index), "rows");
-        let outcome = render_group(group, &out, &caches, &search, &fail_on, &|rows| bar.set_position(rows));
+    let results: Mutex<Vec<GroupOutcome>> = Mutex::new(Vec::new());
+    let render_group = |group: &[Job]| -> GroupOutcome {
+        let bar = crate::progress::bar(
+            &multi,
+            group[0].spec.params.camera.resolution[1] as u64,
+            &format!("cell {}", group[0].spec.index),
+            "rows",
+        );
+        let outcome = render_group(group, &out, &caches, &search, &fail_on, &|rows| {
+            bar.set_position(rows)
+        });
         bar.finish_and_clear();
         multi.remove(&bar);
-        let (rendered, maps, failures) = match outcome {
-            Ok(r) => r,
-            Err(e) => (0, 0, group.iter().map(|j| (j.spec.index, format!("{e:#}"))).collect()),
-        };
-        for (index, message) in &failures {
-            let job = group.iter().find(|j| j.spec.index == *index).expect("failed job is in its group");
-            let text = format!("cell {index} ({}) failed on {}:\n{message}\n", job.spec.label(), crate::cells::hostname());
+        let outcome = outcome.unwrap_or_else(|e| GroupOutcome {
+            failures: group
+                .iter()
+                .map(|j| (j.spec.index, format!("{e:#}")))
+                .collect(),
+            ..Default::default()
+        });
+        for (index, message) in &outcome.failures {
+            let job = group
+                .iter()
+                .find(|j| j.spec.index == *index)
+                .expect("failed job is in its group");
+            let text = format!(
+                "cell {index} ({}) failed on {}:\n{message}\n",
+                job.spec.label(),
+                crate::cells::hostname()
+            );
             let _ = volphot::fsutil::write_atomic(&out.failure(&job.hash), text.as_bytes());
             multi.suspend(|| eprintln!("cell {index} failed: {message}"));
         }
         overall.inc(group.len() as u64);
-        (rendered, maps, failures, 1)
+        outcome
     };
     std::thread::scope(|scope| {
         for _ in 0..opts.jobs.max(1).min(groups.len()) {
@@ -476,11 +583,11 @@ pub fn render_cells(exp: &Experiment, cells: &[CellSpec], hashes: &[String], pla
         }
     });
     overall.finish_and_clear();
-    for (rendered, maps, failures, marches) in results.into_inner().expect("results lock") {
-        summary.rendered += rendered;
-        summary.photon_maps += maps;
-        summary.marches += marches;
-        summary.failed.extend(failures);
+    for outcome in results.into_inner().expect("results lock") {
+        summary.rendered += outcome.rendered;
+        summary.photon_maps += outcome.photon_maps;
+        summary.marches += usize::from(outcome.rendered > 0);
+        summary.failed.extend(outcome.failures);
     }
     summary.failed.sort();
     summary.seconds = start.elapsed().as_secs_f64();
@@ -500,9 +607,14 @@ fn ensure_reference(
     let dir = out.reference(key);
     std::fs::create_dir_all(out.root().join("references"))?;
     let lock_path = out.root().join("references").join(format!("{key}.lock"));
-    let lock = File::options().create(true).truncate(false).write(true).open(&lock_path)?;
+    let lock = File::options()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&lock_path)?;
     // Blocking: another task may be rendering this reference right now.
-    lock.lock().with_context(|| format!("locking {}", lock_path.display()))?;
+    lock.lock()
+        .with_context(|| format!("locking {}", lock_path.display()))?;
     let params = reference_params(&cell.params, spec)?;
     let existing = read_reference_record(&dir).ok();
     let wanted = spec.spp;
@@ -516,8 +628,14 @@ fn ensure_reference(
     let start = Instant::now();
     let (film, passes) = if spec.method == "path" {
         let mut acc = match &existing {
-            Some(r) => volphot::reference::ReferenceAccumulator::from_film(&Film::read_exr(&dir.join("reference.exr"))?, r.passes)?,
-            None => volphot::reference::ReferenceAccumulator::new(scene.camera().width() as usize, scene.camera().height() as usize),
+            Some(r) => volphot::reference::ReferenceAccumulator::from_film(
+                &Film::read_exr(&dir.join("reference.exr"))?,
+                r.passes,
+            )?,
+            None => volphot::reference::ReferenceAccumulator::new(
+                scene.camera().width() as usize,
+                scene.camera().height() as usize,
+            ),
         };
         let more = wanted - acc.passes();
         acc.add_passes(&scene, more, &|rows| bar.set_position(rows))?;
@@ -532,7 +650,13 @@ fn ensure_reference(
     let staged = StagedDir::new(&dir)?;
     film.write_exr(&staged.path().join("reference.exr"))?;
     let (w, h) = (film.width(), film.height());
-    write_png(&staged.path().join("reference.png"), w, h, &film.total(), params.film.exposure)?;
+    write_png(
+        &staged.path().join("reference.png"),
+        w,
+        h,
+        &film.total(),
+        params.film.exposure,
+    )?;
     let record = ReferenceRecord {
         key: key.to_string(),
         method: spec.method.clone(),
@@ -542,7 +666,10 @@ fn ensure_reference(
         volume: scene.volume_source().clone(),
         version: VERSION.to_string(),
     };
-    volphot::fsutil::write_atomic(&staged.path().join("reference.json"), serde_json::to_string_pretty(&record)?.as_bytes())?;
+    volphot::fsutil::write_atomic(
+        &staged.path().join("reference.json"),
+        serde_json::to_string_pretty(&record)?.as_bytes(),
+    )?;
     if dir.exists() {
         std::fs::remove_dir_all(&dir)?;
     }
@@ -573,11 +700,12 @@ pub struct ReferenceRecord {
 /// Reads a reference's record.
 pub fn read_reference_record(dir: &Path) -> Result<ReferenceRecord> {
     let path = dir.join("reference.json");
-    let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
     Ok(serde_json::from_str(&text)?)
 }
 
-/// Renders one march group. Returns (cells rendered, photon maps built, failures).
+/// Renders one march group.
 fn render_group(
     group: &[Job],
     out: &OutputDir,
@@ -585,25 +713,35 @@ fn render_group(
     search: &SearchPath,
     fail_on: &[usize],
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<(usize, usize, Vec<(usize, String)>)> {
+) -> Result<GroupOutcome> {
     let mut failures = Vec::new();
     // Per-cell locks: skip cells another process is rendering right now.
     let mut jobs: Vec<(&Job, File)> = Vec::new();
     for job in group {
         if fail_on.contains(&job.spec.index) {
-            failures.push((job.spec.index, format!("failure injected by {FAIL_CELLS_ENV}")));
+            failures.push((
+                job.spec.index,
+                format!("failure injected by {FAIL_CELLS_ENV}"),
+            ));
             continue;
         }
         let dir = out.cell(&job.hash);
         let lock_path = out.root().join("cells").join(format!(".{}.lock", job.hash));
-        let lock = File::options().create(true).truncate(false).write(true).open(&lock_path)?;
+        let lock = File::options()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&lock_path)?;
         if lock.try_lock().is_err() || is_done(&dir) {
             continue;
         }
         jobs.push((job, lock));
     }
     if jobs.is_empty() {
-        return Ok((0, 0, failures));
+        return Ok(GroupOutcome {
+            failures,
+            ..Default::default()
+        });
     }
     let first = &jobs[0].0.spec;
     let method = first.params.integrator.method;
@@ -658,12 +796,19 @@ fn render_group(
             (Method::Photon, Some(i)) => films[i].clone(),
             (Method::Photon, None) => {
                 let mut f = films[0].clone();
-                f.set_layer(Layer::Multiple, vec![glam::Vec3::ZERO; f.width() * f.height()]);
+                f.set_layer(
+                    Layer::Multiple,
+                    vec![glam::Vec3::ZERO; f.width() * f.height()],
+                );
                 f
             }
             (Method::Reference, _) => films[0].clone(),
         };
-        let map = film_of.get(k).copied().flatten().map(|i| &maps[variants[i].map].1);
+        let map = film_of
+            .get(k)
+            .copied()
+            .flatten()
+            .map(|i| &maps[variants[i].map].1);
         let map_shared_by = match film_of.get(k).copied().flatten() {
             Some(i) => variants.iter().filter(|v| v.map == variants[i].map).count(),
             None => 0,
@@ -676,17 +821,39 @@ fn render_group(
             march_shared_by: jobs.len(),
             map_shared_by,
         };
-        match write_cell(job, &scene, &film, map.map(|m| m.stats().clone()), timings, out) {
+        match write_cell(
+            job,
+            &scene,
+            &film,
+            map.map(|m| m.stats().clone()),
+            timings,
+            out,
+        ) {
             Ok(()) => rendered += 1,
             Err(e) => failures.push((job.spec.index, format!("{e:#}"))),
         }
     }
-    Ok((rendered, maps.len(), failures))
+    Ok(GroupOutcome {
+        rendered,
+        photon_maps: maps.len(),
+        failures,
+    })
 }
 
 /// Writes a finished cell: film, PNGs, metrics, record.
-fn write_cell(job: &Job, scene: &Scene, film: &Film, photons: Option<volphot::photon::PhotonStats>, mut timings: CellTimings, out: &OutputDir) -> Result<()> {
-    anyhow::ensure!(film.is_finite(), "cell {} rendered non-finite pixels", job.spec.index);
+fn write_cell(
+    job: &Job,
+    scene: &Scene,
+    film: &Film,
+    photons: Option<volphot::photon::PhotonStats>,
+    mut timings: CellTimings,
+    out: &OutputDir,
+) -> Result<()> {
+    anyhow::ensure!(
+        film.is_finite(),
+        "cell {} rendered non-finite pixels",
+        job.spec.index
+    );
     let p = &job.spec.params;
     let metrics_start = Instant::now();
     let disco = metrics::disco(film);
@@ -698,8 +865,20 @@ fn write_cell(job: &Job, scene: &Scene, film: &Film, photons: Option<volphot::ph
     film.write_exr(&dir.join("film.exr"))?;
     let shown = metrics::displayed(film, p.integrator.multiple, p.integrator.emission);
     write_png(&dir.join("total.png"), w, h, &shown, exposure)?;
-    write_png(&dir.join("single.png"), w, h, film.layer(Layer::Single), exposure)?;
-    write_png(&dir.join("multiple.png"), w, h, film.layer(Layer::Multiple), exposure)?;
+    write_png(
+        &dir.join("single.png"),
+        w,
+        h,
+        film.layer(Layer::Single),
+        exposure,
+    )?;
+    write_png(
+        &dir.join("multiple.png"),
+        w,
+        h,
+        film.layer(Layer::Multiple),
+        exposure,
+    )?;
     let medium = scene.medium();
     let record = CellRecord {
         index: job.spec.index,
@@ -722,7 +901,10 @@ fn write_cell(job: &Job, scene: &Scene, film: &Film, photons: Option<volphot::ph
         threads: rayon::current_num_threads(),
         host: crate::cells::hostname(),
     };
-    volphot::fsutil::write_atomic(&dir.join("cell.json"), serde_json::to_string_pretty(&record)?.as_bytes())?;
+    volphot::fsutil::write_atomic(
+        &dir.join("cell.json"),
+        serde_json::to_string_pretty(&record)?.as_bytes(),
+    )?;
     staged.commit()?;
     let _ = std::fs::remove_file(out.failure(&job.hash));
     if let Some(key) = &job.reference {
@@ -733,7 +915,13 @@ fn write_cell(job: &Job, scene: &Scene, film: &Film, photons: Option<volphot::ph
 
 /// Computes and stores `vs-<reference>.json` for a cell, if the reference exists. The
 /// reference shows the same layers as the cell (single only for `multiple = false`).
-pub fn compute_reference_metrics(out: &OutputDir, hash: &str, key: &str, params: &SceneParams, shown: &[glam::Vec3]) -> Result<()> {
+pub fn compute_reference_metrics(
+    out: &OutputDir,
+    hash: &str,
+    key: &str,
+    params: &SceneParams,
+    shown: &[glam::Vec3],
+) -> Result<()> {
     let ref_dir = out.reference(key);
     if read_reference_record(&ref_dir).is_err() {
         return Ok(());
@@ -746,14 +934,24 @@ pub fn compute_reference_metrics(out: &OutputDir, hash: &str, key: &str, params:
         reference.width(),
         reference.height()
     );
-    let ref_img = metrics::displayed(&reference, params.integrator.multiple, params.integrator.emission);
+    let ref_img = metrics::displayed(
+        &reference,
+        params.integrator.multiple,
+        params.integrator.emission,
+    );
     let m = metrics::compare(shown, &ref_img, w, h, params.film.exposure, key);
-    volphot::fsutil::write_atomic(&out.cell(hash).join(format!("vs-{key}.json")), serde_json::to_string_pretty(&m)?.as_bytes())?;
+    volphot::fsutil::write_atomic(
+        &out.cell(hash).join(format!("vs-{key}.json")),
+        serde_json::to_string_pretty(&m)?.as_bytes(),
+    )?;
     Ok(())
 }
 
 /// Plans an experiment and computes content addresses.
-pub fn plan_with_hashes(exp: &Experiment, quality: Quality) -> Result<(Vec<CellSpec>, Vec<String>)> {
+pub fn plan_with_hashes(
+    exp: &Experiment,
+    quality: Quality,
+) -> Result<(Vec<CellSpec>, Vec<String>)> {
     let cells = exp.plan(quality)?;
     let hashes = cells.iter().map(cell_hash).collect::<Result<Vec<_>>>()?;
     Ok((cells, hashes))

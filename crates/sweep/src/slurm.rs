@@ -83,7 +83,10 @@ impl SubmissionPlan {
 }
 
 fn shell_quote(s: &str) -> String {
-    if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=:,%@+".contains(c)) {
+    if !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=:,%@+".contains(c))
+    {
         s.to_string()
     } else {
         format!("'{}'", s.replace('\'', "'\\''"))
@@ -91,7 +94,10 @@ fn shell_quote(s: &str) -> String {
 }
 
 fn shell_join(args: &[String]) -> String {
-    args.iter().map(|a| shell_quote(a)).collect::<Vec<_>>().join(" ")
+    args.iter()
+        .map(|a| shell_quote(a))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// `0-3,7,9-10` for a sorted list of indices.
@@ -105,7 +111,11 @@ pub fn compress_ranges(v: &[usize]) -> String {
             i += 1;
             end = v[i];
         }
-        parts.push(if start == end { format!("{start}") } else { format!("{start}-{end}") });
+        parts.push(if start == end {
+            format!("{start}")
+        } else {
+            format!("{start}-{end}")
+        });
         i += 1;
     }
     parts.join(",")
@@ -129,7 +139,11 @@ pub fn max_array_size() -> usize {
 
 /// Groups cells into array tasks: cells that share a march stay in one task (they render
 /// together), then tasks are merged until the array fits `max_tasks`.
-pub fn group_cells(cells: &[&CellSpec], cells_per_task: Option<usize>, max_tasks: usize) -> Vec<Vec<usize>> {
+pub fn group_cells(
+    cells: &[&CellSpec],
+    cells_per_task: Option<usize>,
+    max_tasks: usize,
+) -> Vec<Vec<usize>> {
     let mut groups: Vec<(String, Vec<usize>)> = Vec::new();
     for c in cells {
         let mut p = c.params.clone();
@@ -176,7 +190,10 @@ pub fn plan_submission(
     let abs = |p: &Path| -> PathBuf { std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf()) };
     let output = abs(output);
     let dir = output.join("slurm");
-    let selected: Vec<&CellSpec> = cells.iter().filter(|c| pending.is_none_or(|p| p.contains(&c.index))).collect();
+    let selected: Vec<&CellSpec> = cells
+        .iter()
+        .filter(|c| pending.is_none_or(|p| p.contains(&c.index)))
+        .collect();
     let tasks = group_cells(&selected, args.cells_per_task, max_array_size());
     let exe = std::env::current_exe().context("locating the sweep executable")?;
     let quality_flag = match quality {
@@ -184,12 +201,21 @@ pub fn plan_submission(
         Quality::Paper => " --paper",
         Quality::Default => "",
     };
-    let threads = args.cpus_per_task.map(|c| format!(" --threads {c}")).unwrap_or_default();
-    let task_cells: Vec<String> = tasks.iter().map(|t| format!("\"{}\"", compress_ranges(t))).collect();
+    let threads = args
+        .cpus_per_task
+        .map(|c| format!(" --threads {c}"))
+        .unwrap_or_default();
+    let task_cells: Vec<String> = tasks
+        .iter()
+        .map(|t| format!("\"{}\"", compress_ranges(t)))
+        .collect();
     let hashes: Vec<String> = tasks
         .iter()
         .map(|t| {
-            let h: Vec<String> = t.iter().map(|&i| crate::cells::cell_hash(&cells[i]).unwrap_or_default()).collect();
+            let h: Vec<String> = t
+                .iter()
+                .map(|&i| crate::cells::cell_hash(&cells[i]).unwrap_or_default())
+                .collect();
             format!("\"{}\"", h.join(" "))
         })
         .collect();
@@ -233,7 +259,10 @@ exit $status
         shell_quote(&exe.display().to_string()),
         shell_quote(&output.display().to_string())
     );
-    let mut common = vec!["--parsable".to_string(), format!("--chdir={}", abs(Path::new(".")).display())];
+    let mut common = vec![
+        "--parsable".to_string(),
+        format!("--chdir={}", abs(Path::new(".")).display()),
+    ];
     if let Some(p) = &args.partition {
         common.push(format!("--partition={p}"));
     }
@@ -249,13 +278,25 @@ exit $status
     common.extend(args.sbatch_args.iter().cloned());
     let mut array_args = common.clone();
     array_args.push(format!("--job-name=sweep-{}", exp.name));
-    let throttle = args.max_concurrent.map(|k| format!("%{k}")).unwrap_or_default();
-    array_args.push(format!("--array=0-{}{throttle}", tasks.len().saturating_sub(1)));
-    array_args.push(format!("--output={}", logs.join("task-%A_%a.out").display()));
+    let throttle = args
+        .max_concurrent
+        .map(|k| format!("%{k}"))
+        .unwrap_or_default();
+    array_args.push(format!(
+        "--array=0-{}{throttle}",
+        tasks.len().saturating_sub(1)
+    ));
+    array_args.push(format!(
+        "--output={}",
+        logs.join("task-%A_%a.out").display()
+    ));
     array_args.push(format!("--error={}", logs.join("task-%A_%a.err").display()));
     let mut collect_args = common;
     collect_args.push(format!("--job-name=sweep-{}-collect", exp.name));
-    collect_args.push(format!("--output={}", logs.join("collect-%j.out").display()));
+    collect_args.push(format!(
+        "--output={}",
+        logs.join("collect-%j.out").display()
+    ));
     collect_args.push(format!("--error={}", logs.join("collect-%j.err").display()));
     Ok(SubmissionPlan {
         tasks,
@@ -282,7 +323,11 @@ fn sbatch(args: &[String], script: &Path) -> Result<String> {
     );
     let text = String::from_utf8_lossy(&output.stdout);
     let id = text.trim().split(';').next().unwrap_or("").to_string();
-    anyhow::ensure!(!id.is_empty() && id.chars().all(|c| c.is_ascii_digit()), "sbatch printed `{}`, expected a job id", text.trim());
+    anyhow::ensure!(
+        !id.is_empty() && id.chars().all(|c| c.is_ascii_digit()),
+        "sbatch printed `{}`, expected a job id",
+        text.trim()
+    );
     Ok(id)
 }
 
@@ -298,7 +343,10 @@ fn queued(ids: &[String]) -> Option<Vec<(String, String)>> {
     if ids.is_empty() {
         return Some(Vec::new());
     }
-    let output = Command::new("squeue").args(["-h", "-o", "%i %T", "-j", &ids.join(",")]).output().ok()?;
+    let output = Command::new("squeue")
+        .args(["-h", "-o", "%i %T", "-j", &ids.join(",")])
+        .output()
+        .ok()?;
     if !output.status.success() {
         // squeue rejects ids it no longer knows; treat as finished.
         return Some(Vec::new());
@@ -306,7 +354,10 @@ fn queued(ids: &[String]) -> Option<Vec<(String, String)>> {
     Some(
         String::from_utf8_lossy(&output.stdout)
             .lines()
-            .filter_map(|l| l.split_once(' ').map(|(a, b)| (a.to_string(), b.to_string())))
+            .filter_map(|l| {
+                l.split_once(' ')
+                    .map(|(a, b)| (a.to_string(), b.to_string()))
+            })
             .collect(),
     )
 }
@@ -319,31 +370,50 @@ pub fn print_jobs(out: &OutputDir) {
     };
     let ids = vec![last.array_job.clone(), last.collect_job.clone()];
     match queued(&ids) {
-        Some(q) if q.is_empty() => println!("  slurm: array {} and collect {} have left the queue", last.array_job, last.collect_job),
+        Some(q) if q.is_empty() => println!(
+            "  slurm: array {} and collect {} have left the queue",
+            last.array_job, last.collect_job
+        ),
         Some(q) => {
             for (id, state) in q {
                 println!("  slurm: job {id} {state}");
             }
         }
-        None => println!("  slurm: squeue not available; last submission array {} collect {}", last.array_job, last.collect_job),
+        None => println!(
+            "  slurm: squeue not available; last submission array {} collect {}",
+            last.array_job, last.collect_job
+        ),
     }
 }
 
 /// `sweep run --backend slurm`.
-pub fn run(args: &RunArgs, exp: &Experiment, cells: &[CellSpec], hashes: &[String], out: &OutputDir, quality: Quality) -> Result<ExitCode> {
+pub fn run(
+    args: &RunArgs,
+    exp: &Experiment,
+    cells: &[CellSpec],
+    hashes: &[String],
+    out: &OutputDir,
+    quality: Quality,
+) -> Result<ExitCode> {
     std::fs::create_dir_all(out.root().join("slurm").join("logs"))?;
     crate::runner::write_plan(exp, cells, hashes, out, quality)?;
     let pending: Vec<usize> = cells
         .iter()
         .filter(|c| !is_done(&out.cell(&hashes[c.index])))
         .filter(|c| match &args.cells {
-            Some(sel) => crate::runner::parse_selection(sel, cells.len()).map(|s| s.contains(&c.index)).unwrap_or(false),
+            Some(sel) => crate::runner::parse_selection(sel, cells.len())
+                .map(|s| s.contains(&c.index))
+                .unwrap_or(false),
             None => true,
         })
         .map(|c| c.index)
         .collect();
     if pending.is_empty() {
-        eprintln!("{}: all {} cells are finished; building the report locally", exp.name, cells.len());
+        eprintln!(
+            "{}: all {} cells are finished; building the report locally",
+            exp.name,
+            cells.len()
+        );
         let report = crate::report::build_report(out)?;
         eprintln!("report: {}", report.display());
         return Ok(ExitCode::SUCCESS);
@@ -351,7 +421,11 @@ pub fn run(args: &RunArgs, exp: &Experiment, cells: &[CellSpec], hashes: &[Strin
     // Cells that failed before get a fresh start.
     for &i in &pending {
         let _ = std::fs::remove_file(out.failure(&hashes[i]));
-        let _ = std::fs::remove_file(out.root().join("failed").join(format!("{}.stderr", hashes[i])));
+        let _ = std::fs::remove_file(
+            out.root()
+                .join("failed")
+                .join(format!("{}.stderr", hashes[i])),
+        );
     }
     let plan = plan_submission(exp, cells, out.root(), &args.slurm, quality, Some(&pending))?;
     let array = plan.dir.join("array.sh");
@@ -372,20 +446,52 @@ pub fn run(args: &RunArgs, exp: &Experiment, cells: &[CellSpec], hashes: &[Strin
         collect_job: collect_job.clone(),
         tasks: plan.tasks.len(),
         cells: pending.clone(),
-        submitted_at: std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0),
+        submitted_at: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_secs())
+            .unwrap_or(0),
     });
-    volphot::fsutil::write_atomic(&out.root().join("slurm").join("jobs.json"), serde_json::to_string_pretty(&jobs)?.as_bytes())?;
-    println!("submitted array job {array_job} ({} tasks, {} cells) and collect job {collect_job}", plan.tasks.len(), pending.len());
+    volphot::fsutil::write_atomic(
+        &out.root().join("slurm").join("jobs.json"),
+        serde_json::to_string_pretty(&jobs)?.as_bytes(),
+    )?;
+    println!(
+        "submitted array job {array_job} ({} tasks, {} cells) and collect job {collect_job}",
+        plan.tasks.len(),
+        pending.len()
+    );
     println!("status: sweep status {}", out.root().display());
     if !args.slurm.wait {
         return Ok(ExitCode::SUCCESS);
     }
-    wait(out, hashes, &pending, &[array_job, collect_job.clone()], args.quiet)?;
-    let done = pending.iter().filter(|&&i| is_done(&out.cell(&hashes[i]))).count();
+    wait(
+        out,
+        hashes,
+        &pending,
+        &[array_job, collect_job.clone()],
+        args.quiet,
+    )?;
+    let done = pending
+        .iter()
+        .filter(|&&i| is_done(&out.cell(&hashes[i])))
+        .count();
     let failed = pending.len() - done;
     let collect_ok = out.root().join("report.html").is_file();
-    eprintln!("{}: {done} of {} submitted cells finished, {failed} failed; collect job {collect_job} {}", exp.name, pending.len(), if collect_ok { "wrote the report" } else { "did not write a report" });
-    Ok(if failed == 0 && collect_ok { ExitCode::SUCCESS } else { ExitCode::from(1) })
+    eprintln!(
+        "{}: {done} of {} submitted cells finished, {failed} failed; collect job {collect_job} {}",
+        exp.name,
+        pending.len(),
+        if collect_ok {
+            "wrote the report"
+        } else {
+            "did not write a report"
+        }
+    );
+    Ok(if failed == 0 && collect_ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
 }
 
 fn write_script(path: &Path, text: &str) -> Result<()> {
@@ -396,19 +502,34 @@ fn write_script(path: &Path, text: &str) -> Result<()> {
 }
 
 /// Polls `squeue` until the jobs have left the queue, with a progress bar of finished cells.
-fn wait(out: &OutputDir, hashes: &[String], pending: &[usize], jobs: &[String], quiet: bool) -> Result<()> {
+fn wait(
+    out: &OutputDir,
+    hashes: &[String],
+    pending: &[usize],
+    jobs: &[String],
+    quiet: bool,
+) -> Result<()> {
     let multi = crate::progress::multi(quiet);
     let bar = crate::progress::bar(&multi, pending.len() as u64, "slurm", "cells");
     let start = Instant::now();
     loop {
-        let done = pending.iter().filter(|&&i| is_done(&out.cell(&hashes[i]))).count();
+        let done = pending
+            .iter()
+            .filter(|&&i| is_done(&out.cell(&hashes[i])))
+            .count();
         bar.set_position(done as u64);
         match queued(jobs) {
             Some(q) if q.is_empty() => break,
             Some(_) => {}
             None => anyhow::bail!("squeue is not available to follow jobs {}", jobs.join(",")),
         }
-        std::thread::sleep(Duration::from_millis(if start.elapsed() < Duration::from_secs(10) { 250 } else { 1000 }));
+        std::thread::sleep(Duration::from_millis(
+            if start.elapsed() < Duration::from_secs(10) {
+                250
+            } else {
+                1000
+            },
+        ));
     }
     bar.finish_and_clear();
     Ok(())

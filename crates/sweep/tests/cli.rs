@@ -8,11 +8,16 @@ fn sweep() -> Command {
 
 #[test]
 fn every_verb_has_help_with_an_example() {
-    for verb in ["datasets", "render", "plan", "run", "report", "status", "bench"] {
+    for verb in [
+        "datasets", "render", "plan", "run", "report", "status", "bench",
+    ] {
         let out = sweep().args([verb, "--help"]).output().unwrap();
         assert!(out.status.success(), "{verb} --help");
         let text = String::from_utf8_lossy(&out.stdout);
-        assert!(text.contains("Example"), "{verb} --help lacks an example:\n{text}");
+        assert!(
+            text.contains("Example"),
+            "{verb} --help lacks an example:\n{text}"
+        );
     }
 }
 
@@ -22,7 +27,10 @@ fn bad_arguments_are_clear_errors() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("missing.toml"), "{err}");
-    let out = sweep().args(["render", "x.toml", "--resolution", "12xQ"]).output().unwrap();
+    let out = sweep()
+        .args(["render", "x.toml", "--resolution", "12xQ"])
+        .output()
+        .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("WIDTHxHEIGHT"));
     // `sweep FILE.toml` is `sweep run FILE.toml`.

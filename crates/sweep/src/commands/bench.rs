@@ -45,14 +45,23 @@ fn headline(args: &BenchArgs) -> PathBuf {
     }
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/scenes");
     let local = Path::new("experiments/scenes");
-    let base = if local.is_dir() { local.to_path_buf() } else { dir };
-    base.join(if args.quick { "phantom-foot.toml" } else { "foot.toml" })
+    let base = if local.is_dir() {
+        local.to_path_buf()
+    } else {
+        dir
+    };
+    base.join(if args.quick {
+        "phantom-foot.toml"
+    } else {
+        "foot.toml"
+    })
 }
 
 /// Runs the benchmark.
 pub fn run(args: &BenchArgs) -> Result<ExitCode> {
     let scene_path = headline(args);
-    let (mut params, _) = load_params(&scene_path).with_context(|| format!("benchmark scene {}", scene_path.display()))?;
+    let (mut params, _) = load_params(&scene_path)
+        .with_context(|| format!("benchmark scene {}", scene_path.display()))?;
     if args.quick {
         params.camera.resolution = [256, 256];
     }
@@ -69,7 +78,13 @@ pub fn run(args: &BenchArgs) -> Result<ExitCode> {
         integrator.shadow_cache = shadow_cache;
         integrator.ms_cache = ms_cache;
         let s = scene.with_integrator(integrator)?;
-        eprintln!("bench {name}: {} at {}×{} on {} thread(s)…", scene_path.display(), params.camera.resolution[0], params.camera.resolution[1], pool.current_num_threads());
+        eprintln!(
+            "bench {name}: {} at {}×{} on {} thread(s)…",
+            scene_path.display(),
+            params.camera.resolution[0],
+            params.camera.resolution[1],
+            pool.current_num_threads()
+        );
         let m = pool.install(|| -> Result<Measurement> {
             let start = std::time::Instant::now();
             let map = build_photon_map(&s);

@@ -26,9 +26,18 @@ pub fn estimate_seconds(p: &volphot::scene::SceneParams) -> f64 {
         Method::Reference => pixels * i.reference_spp as f64 * 40e-6,
         Method::Photon => {
             let single = if i.single { 100e-6 * lights } else { 0.0 };
-            let multiple = if i.multiple { 160e-6 * (i.nused as f64 / 150.0).sqrt() } else { 0.0 };
-            let cache = if i.shadow_cache > 0 || i.ms_cache > 0 { 0.25 } else { 1.0 };
-            pixels * i.spp as f64 * steps * (single + multiple) * cache + i.volume_photons as f64 * 2e-6
+            let multiple = if i.multiple {
+                160e-6 * (i.nused as f64 / 150.0).sqrt()
+            } else {
+                0.0
+            };
+            let cache = if i.shadow_cache > 0 || i.ms_cache > 0 {
+                0.25
+            } else {
+                1.0
+            };
+            pixels * i.spp as f64 * steps * (single + multiple) * cache
+                + i.volume_photons as f64 * 2e-6
         }
     }
 }
@@ -40,14 +49,25 @@ pub fn run(args: &PlanArgs) -> Result<ExitCode> {
     let quality = args.quality.quality();
     let (cells, hashes) = plan_with_hashes(&exp, quality)?;
     let plan_seconds = start.elapsed().as_secs_f64();
-    println!("{} ({:?} quality): {} cells", exp.name, quality, cells.len());
+    println!(
+        "{} ({:?} quality): {} cells",
+        exp.name,
+        quality,
+        cells.len()
+    );
     println!("{:>5}  {:<16}  {:>9}  cell", "index", "hash", "est. [s]");
     let mut total = 0.0;
     let mut marches = std::collections::HashSet::new();
     for (c, hash) in cells.iter().zip(&hashes) {
         let est = estimate_seconds(&c.params);
         // Cells sharing a march cost roughly one march plus their gathers.
-        let key = serde_json::to_string(&(&c.params.volume, &c.params.camera, c.params.integrator.stepsize, c.params.integrator.spp)).unwrap_or_default();
+        let key = serde_json::to_string(&(
+            &c.params.volume,
+            &c.params.camera,
+            c.params.integrator.stepsize,
+            c.params.integrator.spp,
+        ))
+        .unwrap_or_default();
         marches.insert(key);
         total += est;
         println!("{:>5}  {:<16}  {:>9.1}  {}", c.index, hash, est, c.label());
@@ -59,11 +79,22 @@ pub fn run(args: &PlanArgs) -> Result<ExitCode> {
         plan_seconds
     );
     if cells.len() > exp.max_cells {
-        println!("note: {} cells exceed the experiment's max_cells = {}; `sweep run` will ask for --yes", cells.len(), exp.max_cells);
+        println!(
+            "note: {} cells exceed the experiment's max_cells = {}; `sweep run` will ask for --yes",
+            cells.len(),
+            exp.max_cells
+        );
     }
     if args.slurm {
         let out = crate::runner::default_output(&exp, quality);
-        let script = crate::slurm::plan_submission(&exp, &cells, &out, &crate::cli::SlurmArgs::default(), quality, None)?;
+        let script = crate::slurm::plan_submission(
+            &exp,
+            &cells,
+            &out,
+            &crate::cli::SlurmArgs::default(),
+            quality,
+            None,
+        )?;
         println!("\n{}", script.describe());
     }
     Ok(ExitCode::SUCCESS)

@@ -7,7 +7,10 @@ use anyhow::Result;
 use crate::cells::OutputDir;
 use crate::cli::{Backend, RunArgs};
 use crate::experiment::Experiment;
-use crate::runner::{RunOptions, default_output, lock_folder, parse_selection, parse_shard, plan_with_hashes, render_cells, write_plan};
+use crate::runner::{
+    RunOptions, default_output, lock_folder, parse_selection, parse_shard, plan_with_hashes,
+    render_cells, write_plan,
+};
 
 /// Plans, renders and reports.
 pub fn run(args: &RunArgs) -> Result<ExitCode> {
@@ -22,7 +25,10 @@ pub fn run(args: &RunArgs) -> Result<ExitCode> {
         exp.max_cells,
         exp.path.display()
     );
-    let output = args.output.clone().unwrap_or_else(|| default_output(&exp, quality));
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&exp, quality));
     let out = OutputDir::new(&output);
     let selection = match (&args.cells, &args.shard) {
         (Some(c), _) => Some(parse_selection(c, cells.len())?),
@@ -56,11 +62,18 @@ pub fn run(args: &RunArgs) -> Result<ExitCode> {
         summary.seconds
     );
     for (index, message) in &summary.failed {
-        eprintln!("  cell {index} failed: {}", message.lines().next().unwrap_or(""));
+        eprintln!(
+            "  cell {index} failed: {}",
+            message.lines().next().unwrap_or("")
+        );
     }
     if !args.no_report && selection.is_none() {
         let report = crate::report::build_report(&out)?;
         eprintln!("report: {}", report.display());
     }
-    Ok(if summary.failed.is_empty() { ExitCode::SUCCESS } else { ExitCode::from(1) })
+    Ok(if summary.failed.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
 }

@@ -13,14 +13,19 @@ use crate::runner::read_plan;
 pub fn run(args: &StatusArgs) -> Result<ExitCode> {
     let out = OutputDir::new(&args.dir);
     let plan = read_plan(&out)?;
-    let (mut done, mut running, mut failed, mut pending) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut done, mut running, mut failed, mut pending) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for c in &plan.cells {
         if is_done(&out.cell(&c.hash)) {
             done.push(c.index);
             continue;
         }
         let lock_path = out.root().join("cells").join(format!(".{}.lock", c.hash));
-        let busy = File::options().write(true).open(&lock_path).ok().is_some_and(|f| f.try_lock().is_err());
+        let busy = File::options()
+            .write(true)
+            .open(&lock_path)
+            .ok()
+            .is_some_and(|f| f.try_lock().is_err());
         if busy {
             running.push(c.index);
         } else if out.failure(&c.hash).is_file() {
@@ -30,7 +35,12 @@ pub fn run(args: &StatusArgs) -> Result<ExitCode> {
         }
     }
     let list = |v: &[usize]| crate::slurm::compress_ranges(v);
-    println!("{} ({}): {} cells", plan.experiment, args.dir.display(), plan.cells.len());
+    println!(
+        "{} ({}): {} cells",
+        plan.experiment,
+        args.dir.display(),
+        plan.cells.len()
+    );
     println!("  done     {:>5}  {}", done.len(), list(&done));
     println!("  running  {:>5}  {}", running.len(), list(&running));
     println!("  failed   {:>5}  {}", failed.len(), list(&failed));

@@ -1,0 +1,123 @@
+//! Loaders on the real CT/MRI files of `../shared/data` (or `$VOLPHOT_DATA`): checksums,
+//! value statistics from the data README, the x-fastest layout, and orientation.
+//! Under `CI=true` a missing dataset is a failure, not a skip.
+
+mod common;
+
+use volphot::volume::registry::{DATASETS, DatasetOverrides, load_dataset};
+
+/// (name, min, max, mean) of the raw values as documented in `../shared/data/README.md`.
+const STATS: &[(&str, f64, f64, f64, f64)] = &[
+    ("engine", 0.0, 255.0, 22.35, 0.006),
+    ("bonsai", 0.0, 255.0, 13.71, 0.006),
+    ("foot", 0.0, 255.0, 13.94, 0.006),
+    ("head", 0.0, 255.0, 40.65, 0.006),
+    ("head16", 0.0, 4328.0, 275.8, 0.06),
+    ("cthead", 0.0, 3272.0, 379.5, 0.06),
+    ("skeleton", -1024.0, 2986.0, -586.0, 0.6),
+    ("colin27", 0.0, 254.0, 44.6, 0.06),
+];
+
+fn data_available() -> bool {
+    let search = common::search_path();
+    let all = DATASETS.iter().all(|d| search.locate(d.file).is_some());
+    if !all {
+        assert!(
+            !common::require_real_data(),
+            "CI=true but the real datasets are missing from {:?} (set VOLPHOT_DATA)",
+            search.folders()
+        );
+        eprintln!(
+            "skipping: real datasets not found on {:?}",
+            search.folders()
+        );
+    }
+    all
+}
+
+#[test]
+fn every_dataset_loads_with_its_checksum_and_documented_statistics() {
+    if !data_available() {
+        return;
+    }
+    let search = common::search_path();
+    for &(name, min, max, mean, tol) in STATS {
+        // load_dataset verifies the registry's sha256 before returning.
+        let v = load_dataset(name, &search, &DatasetOverrides::default()).unwrap();
+        let n = v.normalization();
+        assert_eq!((n.data_min, n.data_max), (min, max), "{name}");
+        // Every window contains the data, so the mean maps back exactly.
+        let raw_mean = v.grid().mean() * (n.raw_hi - n.raw_lo) + n.raw_lo;
+        assert!(
+            (raw_mean - mean).abs() <= tol,
+            "{name}: mean {raw_mean} vs {mean}"
+        );
+        let info = volphot::volume::registry::find(name).unwrap();
+        assert_eq!(v.grid().dims(), info.dims);
+        match v.source() {
+            volphot::volume::VolumeSource::File {
+                sha256, dataset, ..
+            } => {
+                assert_eq!(sha256, info.sha256);
+                assert_eq!(dataset.as_deref(), Some(name));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}
+
+#[test]
+fn voxels_are_x_fastest_and_values_exact() {
+    if !data_available() {
+        return;
+    }
+    let search = common::search_path();
+    let v = load_dataset("engine", &search, &DatasetOverrides::default()).unwrap();
+    let bytes = std::fs::read(search.locate("engine_256x256x128_uint8.raw").unwrap()).unwrap();
+    let [nx, ny, _] = v.grid().dims();
+    for (x, y, z) in [(0, 0, 0), (137, 91, 64), (255, 3, 127), (10, 250, 5)] {
+        let raw = bytes[x + nx * (y + ny * z)] as f32;
+        assert_eq!(
+            v.grid().voxel(x, y, z) * 255.0,
+            raw,
+            "voxel ({x}, {y}, {z})"
+        );
+    }
+    // Signed CT: the air peak at −1024 HU maps to 0 in the [-1024, 3071] window.
+    let ct = load_dataset("skeleton", &search, &DatasetOverrides::default()).unwrap();
+    assert_eq!(ct.grid().min_max().0, 0.0);
+    let bone = ct.normalization().normalize(1000.0);
+    assert!((bone - 2024.0 / 4095.0).abs() < 1e-9, "1000 HU → {bone}");
+}
+
+#[test]
+fn eight_and_sixteen_bit_heads_are_spatially_aligned() {
+    // The 8-bit copy was made from PNG slices with flipped rows to match the 16-bit raw
+    // orientation (data README: correlation 0.987 with the flip, 0.62 without).
+    if !data_available() {
+        return;
+    }
+    let search = common::search_path();
+    let a = load_dataset("head", &search, &DatasetOverrides::default()).unwrap();
+    let b = load_dataset("head16", &search, &DatasetOverrides::default()).unwrap();
+    let (x, y) = (a.grid().values(), b.grid().values());
+    let n = x.len() as f64;
+    let (mx, my) = (
+        x.iter().map(|&v| v as f64).sum::<f64>() / n,
+        y.iter().map(|&v| v as f64).sum::<f64>() / n,
+    );
+    let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+    for (&p, &q) in x.iter().zip(y) {
+        let (dp, dq) = (p as f64 - mx, q as f64 - my);
+        sxy += dp * dq;
+        sxx += dp * dp;
+        syy += dq * dq;
+    }
+    let r = sxy / (sxx * syy).sqrt();
+    assert!(r > 0.95, "correlation {r}");
+    assert_eq!(
+        a.grid().bounds(),
+        b.grid().bounds(),
+        "same placement (spacing 1, 1, 1.5)"
+    );
+}
