@@ -108,6 +108,13 @@ impl Grid {
         if !self.bounds.contains(p) {
             return 0.0;
         }
+        self.trilinear_clamped(p)
+    }
+
+    /// Trilinear reconstruction for a point known to lie in the box (e.g. a marching sample
+    /// inside the ray's clipped interval); points outside read the nearest edge cell.
+    #[inline]
+    pub fn trilinear_clamped(&self, p: Vec3) -> f32 {
         // Continuous voxel coordinate with centres at integers.
         let c = (p - self.bounds.min) * self.scale - 0.5;
         let [nx, ny, nz] = self.dims;

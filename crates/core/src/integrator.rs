@@ -11,7 +11,9 @@
 //!
 //! each weighted by the segment's quadrature and the running eye transmittance, which is
 //! updated multiplicatively (eq. 3). Marching stops when the eye transmittance drops below
-//! `termination`; the radiance lost is at most that fraction of what lies behind.
+//! `termination`; the radiance lost is at most that fraction of what lies behind. Marched
+//! shadow rays stop at the same threshold (the light they could still carry is below that
+//! fraction) and count as blocked.
 //!
 //! All three layers come from ONE pass, so "single only" and "single + multiple" share
 //! every random decision.
@@ -41,8 +43,10 @@ use crate::sampling::Phase;
 use crate::scene::Scene;
 use crate::settings::{Estimate, IntegratorParams, Quadrature, ShadowEstimator};
 
-/// Optical depth beyond which a shadow ray counts as blocked (T < 10⁻⁴).
-pub const SHADOW_TAU_MAX: f32 = 9.21;
+/// Optical depth up to which the transmittance cache marches its nodes (T ≈ 10⁻¹⁶): far
+/// beyond any shadow threshold, so interpolation between a lit and a dark node stays exact
+/// in the logarithm.
+pub const CACHE_TAU_MAX: f32 = 36.8;
 
 /// Counters of one marching pass.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -175,7 +179,7 @@ impl TransmittanceCache {
                         t1.min(distance),
                         step,
                         0.5,
-                        SHADOW_TAU_MAX * 4.0,
+                        CACHE_TAU_MAX,
                     ),
                     None => 0.0,
                 }
@@ -268,6 +272,8 @@ struct Marcher<'a> {
     variants: &'a [MsVariant],
     groups: Vec<MapGroup<'a>>,
     shadow_caches: Option<Vec<TransmittanceCache>>,
+    /// `−ln(termination)`: optical depth at which a marched shadow ray counts as blocked.
+    shadow_tau_max: f32,
 }
 
 #[derive(Default)]
@@ -323,15 +329,17 @@ impl Marcher<'_> {
         let t1 = t1.min(distance);
         match self.settings.shadow {
             ShadowEstimator::March => {
+                // A shadow ray stops, like the eye ray, once its transmittance drops below
+                // `termination`: the light it could still carry is below that fraction.
                 let tau = self.medium.optical_depth_marched_until(
                     &ray,
                     t0,
                     t1,
                     self.settings.stepsize,
                     rng.uniform(),
-                    SHADOW_TAU_MAX,
+                    self.shadow_tau_max,
                 );
-                if tau > SHADOW_TAU_MAX {
+                if tau > self.shadow_tau_max {
                     0.0
                 } else {
                     (-tau).exp()
@@ -352,7 +360,7 @@ impl Marcher<'_> {
         let mut eye_t = 1.0f32;
         self.medium.march(ray, t0, t1, s.stepsize, u, |t, w| {
             let x = ray.at(t);
-            let sigma_t = self.medium.sigma_t(x);
+            let sigma_t = self.medium.sigma_t_in_box(x);
             if sigma_t <= 0.0 {
                 return ControlFlow::Continue(());
             }
@@ -499,6 +507,11 @@ pub fn render_march(
         settings,
         variants,
         groups,
+        shadow_tau_max: if settings.termination > 0.0 {
+            -settings.termination.ln()
+        } else {
+            f32::INFINITY
+        },
         shadow_caches: (settings.shadow_cache > 0 && settings.single).then(|| {
             scene
                 .lights()

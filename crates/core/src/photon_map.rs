@@ -129,6 +129,7 @@ impl PhotonMap {
         hits
     }
 
+    /// Gathers sorted by distance (kiddo keeps results sorted cheaply for k ≤ 192).
     fn gather_into(&self, p: Vec3, k: usize, maxdist: f32, hits: &mut Vec<(f32, u32)>) {
         hits.clear();
         let Some(k) = NonZeroUsize::new(k) else {
@@ -148,6 +149,41 @@ impl PhotonMap {
         );
     }
 
+    /// One estimate without prefix sums: the sum over all gathered photons, with the
+    /// radius rule of [`PhotonMap::estimates`].
+    fn estimate_unsorted(
+        &self,
+        p: Vec3,
+        wo: Vec3,
+        phase: Phase,
+        v: &GatherVariant,
+        hits: &mut Vec<(f32, u32)>,
+    ) -> Vec3 {
+        self.gather_into(p, v.nused as usize, v.maxdist, hits);
+        let n = hits.len();
+        let mut sum = Vec3::ZERO;
+        let mut r2 = 0.0f32;
+        for &(d2, i) in hits.iter() {
+            let photon = &self.photons[i as usize];
+            let weight = match v.gathered {
+                Gathered::Flux => 1.0,
+                Gathered::Fluence if photon.sigma_t > 0.0 => 1.0 / photon.sigma_t,
+                Gathered::Fluence => 0.0,
+            };
+            sum += photon.power * (weight * phase.eval(photon.direction, wo));
+            r2 = r2.max(d2);
+        }
+        let r = if n == v.nused as usize {
+            r2.sqrt()
+        } else {
+            v.maxdist
+        };
+        if n == 0 || r <= 0.0 {
+            return Vec3::ZERO;
+        }
+        sum / (4.0 / 3.0 * std::f32::consts::PI * r * r * r)
+    }
+
     /// Radiance estimates (eq. 11) at `p` towards propagation direction `wo` for every
     /// variant, from a single k-NN query with the largest `nused` and `maxdist`.
     pub fn estimates(
@@ -160,6 +196,10 @@ impl PhotonMap {
         out: &mut [Vec3],
     ) {
         debug_assert_eq!(variants.len(), out.len());
+        if let [v] = variants {
+            out[0] = self.estimate_unsorted(p, wo, phase, v, &mut scratch.hits);
+            return;
+        }
         let k = variants.iter().map(|v| v.nused).max().unwrap_or(0) as usize;
         let r_max = variants.iter().map(|v| v.maxdist).fold(0.0f32, f32::max);
         let GatherScratch {

@@ -13,7 +13,7 @@
 //! | `shadow` | `march` | §6: transmittance to the light by ray marching |
 //! | `quadrature` | `exact` | per-segment `(1 − e^{−σtΔx})/σt` instead of `Δx` |
 //! | `estimate` | `fluence` | `σs(x)·Σ p ΔΦ/(σt(x_p)·4/3 π r³)`; `albedo` and `thesis` (eq. 11) assume σt constant in the gather sphere |
-//! | `termination` | 0.001 | stop marching when eye transmittance < 0.1 % |
+//! | `termination` | 0.001 | stop marching eye and shadow rays when transmittance < 0.1 % |
 //! | `shadow_cache`, `ms_cache` | 0 (off) | exact path by default |
 //! | `spp` | 1 | one jittered eye ray per pixel, as the thesis |
 //! | `reference_spp` | 64 | reference path tracer samples per pixel |
@@ -115,7 +115,7 @@ pub struct IntegratorParams {
     pub quadrature: Quadrature,
     /// Radiance-estimate normalisation.
     pub estimate: Estimate,
-    /// Eye transmittance below which marching stops.
+    /// Transmittance below which eye and shadow rays stop marching.
     pub termination: f32,
     /// Per-light transmittance cache resolution along the longest axis (0 = off).
     pub shadow_cache: u32,

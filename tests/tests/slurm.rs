@@ -1,0 +1,242 @@
+//! A real single-node Slurm cluster (Debian's packages, started by
+//! `scripts/slurm-local.sh`): a grid through `--backend slurm --wait` must give the same
+//! CSV and images as a local run; a task that fails on purpose is reported and only its
+//! cell is resubmitted. The cluster is always stopped, also when an assertion fails.
+//!
+//! Runs under `CI=true` (where it may not skip) or with `VOLPHOT_SLURM_TEST=1`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use volphot_tests::{run_ok, sweep, workspace};
+
+/// Starts the cluster in its own folder and ports; stops it on drop.
+struct Cluster {
+    dir: PathBuf,
+    conf: PathBuf,
+}
+
+impl Cluster {
+    fn script() -> PathBuf {
+        workspace().join("scripts/slurm-local.sh")
+    }
+
+    fn command(&self, verb: &str) -> Command {
+        let mut c = Command::new(Self::script());
+        c.arg(verb)
+            .env("VOLPHOT_SLURM_DIR", &self.dir)
+            .env("VOLPHOT_SLURM_CTLD_PORT", "6917")
+            .env("VOLPHOT_SLURM_D_PORT", "6918");
+        c
+    }
+
+    fn start(dir: &Path) -> Result<Self, String> {
+        let cluster = Cluster {
+            dir: dir.to_path_buf(),
+            conf: dir.join("slurm.conf"),
+        };
+        let out = cluster
+            .command("start")
+            .output()
+            .map_err(|e| e.to_string())?;
+        if !out.status.success() {
+            // Stop whatever did start before reporting.
+            let _ = cluster.command("stop").output();
+            return Err(format!(
+                "slurm-local.sh start failed:\n{}",
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+        Ok(cluster)
+    }
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        let out = self.command("stop").output();
+        if let Ok(o) = out
+            && !o.status.success()
+        {
+            eprintln!(
+                "slurm-local.sh stop: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+    }
+}
+
+fn enabled() -> bool {
+    let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
+    ci || std::env::var("VOLPHOT_SLURM_TEST").is_ok_and(|v| v == "1")
+}
+
+fn experiment(dir: &Path) -> PathBuf {
+    let scene = workspace().join("experiments/scenes/phantom-foot.toml");
+    let text = format!(
+        r#"
+name = "slurm-e2e"
+scene = "{}"
+[set]
+"volume.phantom.resolution" = [32, 32, 32]
+"camera.resolution" = [32, 32]
+"integrator.volume_photons" = 3000
+"integrator.stepsize" = 0.004
+[axes]
+"sigma.t" = [20, 40, 80]
+"integrator.nused" = [20, 60]
+[[compare]]
+kind = "layers"
+"#,
+        scene.display()
+    );
+    let path = dir.join("slurm-e2e.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// cells.csv without the columns that legitimately differ between runs (timings, memory, host).
+fn stable_csv(path: &Path) -> Vec<Vec<String>> {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let headers: Vec<String> = r.headers().unwrap().iter().map(str::to_string).collect();
+    let keep: Vec<usize> = headers
+        .iter()
+        .enumerate()
+        .filter(|(_, h)| !(h.starts_with("time_") || h.starts_with("peak_memory") || *h == "host"))
+        .map(|(i, _)| i)
+        .collect();
+    let mut rows = vec![keep.iter().map(|&i| headers[i].clone()).collect::<Vec<_>>()];
+    for rec in r.records() {
+        let rec = rec.unwrap();
+        rows.push(keep.iter().map(|&i| rec[i].to_string()).collect());
+    }
+    rows
+}
+
+fn cell_dirs(out: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(out.join("cells"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.join("cell.json").is_file())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn slurm_array_matches_local_run_and_resubmits_only_failures() {
+    if !enabled() {
+        eprintln!("skipping: set CI=true or VOLPHOT_SLURM_TEST=1 to start a local Slurm cluster");
+        return;
+    }
+    let start = Instant::now();
+    let tmp = tempfile::tempdir().unwrap();
+    let cluster = match Cluster::start(&tmp.path().join("cluster")) {
+        Ok(c) => c,
+        Err(e) => panic!("{e}"),
+    };
+    let exp = experiment(tmp.path());
+    let slurm = |out: &Path, extra: &[&str]| {
+        let mut c = sweep();
+        c.arg(&exp)
+            .arg("--output")
+            .arg(out)
+            .args([
+                "--backend",
+                "slurm",
+                "--wait",
+                "--quiet",
+                "--max-concurrent",
+                "2",
+                "--cpus-per-task",
+                "1",
+                "--mem",
+                "500M",
+            ])
+            .args(extra)
+            .env("SLURM_CONF", &cluster.conf);
+        c
+    };
+
+    // 1. Local and Slurm runs of the same file agree.
+    let local = tmp.path().join("local");
+    run_ok(sweep().arg(&exp).arg("--output").arg(&local).arg("--quiet"));
+    let remote = tmp.path().join("remote");
+    let t0 = Instant::now();
+    run_ok(&mut slurm(&remote, &[]));
+    eprintln!("slurm run: {:.1} s", t0.elapsed().as_secs_f64());
+    assert_eq!(
+        stable_csv(&local.join("cells.csv")),
+        stable_csv(&remote.join("cells.csv"))
+    );
+    let (a, b) = (cell_dirs(&local), cell_dirs(&remote));
+    assert_eq!(a.len(), 6);
+    assert_eq!(
+        a.iter()
+            .map(|p| p.file_name().unwrap().to_owned())
+            .collect::<Vec<_>>(),
+        b.iter()
+            .map(|p| p.file_name().unwrap().to_owned())
+            .collect::<Vec<_>>(),
+        "same content addresses"
+    );
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(
+            std::fs::read(x.join("film.exr")).unwrap(),
+            std::fs::read(y.join("film.exr")).unwrap(),
+            "{}",
+            x.display()
+        );
+    }
+    for figure in [
+        "figures/sheet0_total_0.png",
+        "figures/sheet1_multiple_0.png",
+    ] {
+        assert_eq!(
+            std::fs::read(local.join(figure)).unwrap(),
+            std::fs::read(remote.join(figure)).unwrap(),
+            "{figure}"
+        );
+    }
+    assert!(remote.join("report.html").is_file() && remote.join("slurm/array.sh").is_file());
+
+    // 2. One task fails on purpose: reported, then only that cell is resubmitted.
+    let flaky = tmp.path().join("flaky");
+    let failed = slurm(&flaky, &[])
+        .env("VOLPHOT_FAIL_CELLS", "2")
+        .output()
+        .unwrap();
+    assert!(!failed.status.success(), "a failed cell makes the run fail");
+    let report = std::fs::read_to_string(flaky.join("report.md")).unwrap();
+    assert!(
+        report.contains("## Failures") && report.contains("cell 2"),
+        "{report}"
+    );
+    let status = run_ok(
+        sweep()
+            .arg("status")
+            .arg(&flaky)
+            .env("SLURM_CONF", &cluster.conf),
+    );
+    let status = String::from_utf8_lossy(&status.stdout);
+    assert!(status.contains("failed       1  2"), "{status}");
+    run_ok(&mut slurm(&flaky, &[]));
+    let jobs: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(flaky.join("slurm/jobs.json")).unwrap())
+            .unwrap();
+    let submissions = jobs["submissions"].as_array().unwrap();
+    assert_eq!(submissions.len(), 2);
+    assert_eq!(
+        submissions[1]["cells"],
+        serde_json::json!([2]),
+        "only the failed cell is resubmitted"
+    );
+    assert_eq!(cell_dirs(&flaky).len(), 6);
+    assert_eq!(
+        stable_csv(&flaky.join("cells.csv")),
+        stable_csv(&local.join("cells.csv"))
+    );
+    eprintln!("slurm test: {:.1} s", start.elapsed().as_secs_f64());
+    drop(cluster);
+}
