@@ -95,14 +95,21 @@ kind = "layers"
     path
 }
 
-/// cells.csv without the columns that legitimately differ between runs (timings, memory, host).
+/// cells.csv without the columns that legitimately differ between runs: timings, memory,
+/// host, and how many cells shared a march (a resubmitted cell renders alone; its image
+/// is the same).
 fn stable_csv(path: &Path) -> Vec<Vec<String>> {
     let mut r = csv::Reader::from_path(path).unwrap();
     let headers: Vec<String> = r.headers().unwrap().iter().map(str::to_string).collect();
     let keep: Vec<usize> = headers
         .iter()
         .enumerate()
-        .filter(|(_, h)| !(h.starts_with("time_") || h.starts_with("peak_memory") || *h == "host"))
+        .filter(|(_, h)| {
+            !(h.starts_with("time_")
+                || h.starts_with("peak_memory")
+                || h.starts_with("march_shared_by")
+                || *h == "host")
+        })
         .map(|(i, _)| i)
         .collect();
     let mut rows = vec![keep.iter().map(|&i| headers[i].clone()).collect::<Vec<_>>()];
