@@ -5,8 +5,9 @@
 //! with σt > 0 (samples with σs = 0 are skipped, §7.1.3):
 //!
 //! * single scattering from every light: `σs · p · I·falloff/r² · T(x → light)`;
-//! * multiple scattering from the photon map: `σs(x) · Σ p ΔΦ_p / (σt(x_p) · 4/3 π r³)`
-//!   (eq. 11 in fluence form; the thesis's own form is selectable, see [`Estimate`]);
+//! * multiple scattering from the photon map: `σs(x) · Σ p ΔΦ_p / (σt(x_p) · V_m)` with
+//!   `V_m` the medium's share of the gather sphere (eq. 11 in fluence form, normalised by
+//!   where photons can be; the thesis's own form is selectable, see [`Estimate`]);
 //! * emission: `Le · d(x)`;
 //!
 //! each weighted by the segment's quadrature and the running eye transmittance, which is
@@ -39,7 +40,6 @@ use crate::light::Light;
 use crate::medium::Medium;
 use crate::photon_map::{GatherScratch, GatherVariant, Gathered, PhotonMap};
 use crate::rng::{Domain, Rng};
-use crate::sampling::Phase;
 use crate::scene::Scene;
 use crate::settings::{Estimate, IntegratorParams, Quadrature, ShadowEstimator};
 
@@ -212,7 +212,8 @@ impl ScatterCache {
         &self,
         map: &PhotonMap,
         gather: &[GatherVariant],
-        phase: Phase,
+        masked: &[bool],
+        medium: &Medium,
         p: Vec3,
         out: &mut [Vec3],
     ) {
@@ -224,19 +225,29 @@ impl ScatterCache {
             let values = self.nodes[idx].get_or_init(|| {
                 self.computed.fetch_add(1, Ordering::Relaxed);
                 let mut v = vec![Vec3::ZERO; gather.len()];
-                map.estimates(
-                    self.lattice.position(idx),
-                    Vec3::Z,
-                    phase,
-                    gather,
-                    &mut GatherScratch::default(),
-                    &mut v,
-                );
+                let mut scratch = GatherScratch::default();
+                let node = self.lattice.position(idx);
+                map.estimates(node, Vec3::Z, medium.phase(), gather, &mut scratch, &mut v);
+                mask_estimates(medium, node, masked, scratch.radii(), &mut v);
                 v.into_boxed_slice()
             });
             for (o, v) in out.iter_mut().zip(values.iter()) {
                 *o += *v * w;
             }
+        }
+    }
+}
+
+/// Divides masked estimates by the medium's share of their gather sphere.
+fn mask_estimates(medium: &Medium, at: Vec3, masked: &[bool], radii: &[f32], values: &mut [Vec3]) {
+    for ((value, &m), &r) in values.iter_mut().zip(masked).zip(radii) {
+        if m && r > 0.0 {
+            let share = medium.occupancy(at, r);
+            *value = if share > 0.0 {
+                *value / share
+            } else {
+                Vec3::ZERO
+            };
         }
     }
 }
@@ -262,6 +273,8 @@ struct MapGroup<'a> {
     variants: Vec<usize>,
     /// The gathers to run, aligned with `variants`.
     gather: Vec<GatherVariant>,
+    /// Which gathers are normalised by the medium's share of the sphere.
+    masked: Vec<bool>,
     cache: Option<ScatterCache>,
 }
 
@@ -391,7 +404,8 @@ impl Marcher<'_> {
                         Some(cache) => cache.lookup(
                             group.map,
                             &group.gather,
-                            self.medium.phase(),
+                            &group.masked,
+                            self.medium,
                             x,
                             estimates,
                         ),
@@ -405,12 +419,19 @@ impl Marcher<'_> {
                                 &mut acc.gather,
                                 estimates,
                             );
+                            mask_estimates(
+                                self.medium,
+                                x,
+                                &group.masked,
+                                acc.gather.radii(),
+                                estimates,
+                            );
                         }
                     }
                     for (&vi, e) in group.variants.iter().zip(estimates.iter()) {
                         // Source term per unit length from the gathered density (`Estimate`).
                         let factor = match self.variants[vi].estimate {
-                            Estimate::Fluence => self.medium.albedo() * sigma_t,
+                            Estimate::Masked | Estimate::Fluence => self.medium.albedo() * sigma_t,
                             Estimate::Albedo => self.medium.albedo(),
                             Estimate::Thesis => Vec3::ONE,
                         };
@@ -482,19 +503,22 @@ pub fn render_march(
             nused: v.nused,
             maxdist: v.maxdist,
             gathered: match v.estimate {
-                Estimate::Fluence => Gathered::Fluence,
+                Estimate::Masked | Estimate::Fluence => Gathered::Fluence,
                 Estimate::Albedo | Estimate::Thesis => Gathered::Flux,
             },
         };
+        let masked = v.estimate == Estimate::Masked;
         match groups.iter_mut().find(|g| std::ptr::eq(g.map, maps[v.map])) {
             Some(g) => {
                 g.variants.push(vi);
                 g.gather.push(gather);
+                g.masked.push(masked);
             }
             None => groups.push(MapGroup {
                 map: maps[v.map],
                 variants: vec![vi],
                 gather: vec![gather],
+                masked: vec![masked],
                 cache: (settings.ms_cache > 0)
                     .then(|| ScatterCache::new(bounds, settings.ms_cache)),
             }),

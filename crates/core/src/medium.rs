@@ -247,6 +247,26 @@ impl Iterator for MajorantSegments<'_> {
     }
 }
 
+/// 64 points spread evenly through the unit ball (equal-volume shells, golden-angle
+/// spirals), the same for every query so estimates stay deterministic.
+fn ball_points() -> &'static [Vec3] {
+    static POINTS: std::sync::OnceLock<Vec<Vec3>> = std::sync::OnceLock::new();
+    POINTS.get_or_init(|| {
+        let n = 64;
+        let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+        (0..n)
+            .map(|i| {
+                let f = (i as f32 + 0.5) / n as f32;
+                let radius = f.cbrt();
+                let z = 1.0 - 2.0 * f;
+                let ring = (1.0 - z * z).max(0.0).sqrt();
+                let phi = golden * i as f32;
+                Vec3::new(ring * phi.cos(), ring * phi.sin(), z) * radius
+            })
+            .collect()
+    })
+}
+
 /// A renderable medium built from a volume.
 #[derive(Debug, Clone)]
 pub struct Medium {
@@ -376,6 +396,20 @@ impl Medium {
     /// The phase function.
     pub fn phase(&self) -> Phase {
         self.phase
+    }
+
+    /// The fraction of the sphere of radius `r` around `center` that holds medium
+    /// (σt > 0), estimated at 64 fixed, evenly spread points plus the centre. Used to
+    /// normalise photon-map estimates by the volume photons can actually occupy.
+    pub fn occupancy(&self, center: Vec3, r: f32) -> f32 {
+        let points = ball_points();
+        let mut inside = usize::from(self.density(center) > 0.0);
+        for u in points {
+            if self.density(center + *u * r) > 0.0 {
+                inside += 1;
+            }
+        }
+        inside as f32 / (points.len() + 1) as f32
     }
 
     /// The majorant bricks.

@@ -62,6 +62,15 @@ pub struct GatherScratch {
     hits: Vec<(f32, u32)>,
     flux: Vec<Vec3>,
     fluence: Vec<Vec3>,
+    radii: Vec<f32>,
+}
+
+impl GatherScratch {
+    /// The radius each variant of the last [`PhotonMap::estimates`] call used (0 when it
+    /// found no photons).
+    pub fn radii(&self) -> &[f32] {
+        &self.radii
+    }
 }
 
 /// A kd-tree over stored photons.
@@ -150,7 +159,7 @@ impl PhotonMap {
     }
 
     /// One estimate without prefix sums: the sum over all gathered photons, with the
-    /// radius rule of [`PhotonMap::estimates`].
+    /// radius rule of [`PhotonMap::estimates`]. Returns the estimate and its radius.
     fn estimate_unsorted(
         &self,
         p: Vec3,
@@ -158,7 +167,7 @@ impl PhotonMap {
         phase: Phase,
         v: &GatherVariant,
         hits: &mut Vec<(f32, u32)>,
-    ) -> Vec3 {
+    ) -> (Vec3, f32) {
         self.gather_into(p, v.nused as usize, v.maxdist, hits);
         let n = hits.len();
         let mut sum = Vec3::ZERO;
@@ -179,9 +188,9 @@ impl PhotonMap {
             v.maxdist
         };
         if n == 0 || r <= 0.0 {
-            return Vec3::ZERO;
+            return (Vec3::ZERO, 0.0);
         }
-        sum / (4.0 / 3.0 * std::f32::consts::PI * r * r * r)
+        (sum / (4.0 / 3.0 * std::f32::consts::PI * r * r * r), r)
     }
 
     /// Radiance estimates (eq. 11) at `p` towards propagation direction `wo` for every
@@ -196,8 +205,11 @@ impl PhotonMap {
         out: &mut [Vec3],
     ) {
         debug_assert_eq!(variants.len(), out.len());
+        scratch.radii.clear();
         if let [v] = variants {
-            out[0] = self.estimate_unsorted(p, wo, phase, v, &mut scratch.hits);
+            let (value, r) = self.estimate_unsorted(p, wo, phase, v, &mut scratch.hits);
+            out[0] = value;
+            scratch.radii.push(r);
             return;
         }
         let k = variants.iter().map(|v| v.nused).max().unwrap_or(0) as usize;
@@ -206,6 +218,7 @@ impl PhotonMap {
             hits,
             flux,
             fluence,
+            radii,
         } = scratch;
         self.gather_into(p, k, r_max, hits);
         let need_flux = variants.iter().any(|v| v.gathered == Gathered::Flux);
@@ -248,8 +261,10 @@ impl PhotonMap {
             // rather than undefined.
             if n == 0 || r <= 0.0 {
                 *o = Vec3::ZERO;
+                radii.push(0.0);
                 continue;
             }
+            radii.push(r);
             let volume = 4.0 / 3.0 * std::f32::consts::PI * r * r * r;
             let sum = match v.gathered {
                 Gathered::Flux => flux[n],

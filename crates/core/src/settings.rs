@@ -12,7 +12,7 @@
 //! | `free_path` | `delta` | correct sampler; `thesis` reproduces §5.1/§7.1.2 |
 //! | `shadow` | `march` | §6: transmittance to the light by ray marching |
 //! | `quadrature` | `exact` | per-segment `(1 − e^{−σtΔx})/σt` instead of `Δx` |
-//! | `estimate` | `fluence` | `σs(x)·Σ p ΔΦ/(σt(x_p)·4/3 π r³)`; `albedo` and `thesis` (eq. 11) assume σt constant in the gather sphere |
+//! | `estimate` | `masked` | `σs(x)·Σ p ΔΦ/(σt(x_p)·V_m)`, `V_m` the medium's share of the gather sphere; `fluence` divides by the whole sphere, `albedo` and `thesis` (eq. 11) also assume σt constant in it |
 //! | `termination` | 0.001 | stop marching eye and shadow rays when transmittance < 0.1 % |
 //! | `shadow_cache`, `ms_cache` | 0 (off) | exact path by default |
 //! | `spp` | 1 | one jittered eye ray per pixel, as the thesis |
@@ -65,9 +65,14 @@ pub enum Quadrature {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Estimate {
+    /// `σs(x)·Σ p·ΔΦ_p / (σt(x_p)·V_m)` with `V_m` the part of the gather sphere that holds
+    /// medium (σt > 0): photons exist only there, so dividing by the whole sphere dilutes
+    /// the estimate wherever the sphere reaches into empty space (thin bone, surfaces).
+    /// `V_m` is estimated from 64 fixed points in the sphere. The default.
+    Masked,
     /// `σs(x)·Σ p·ΔΦ_p / (σt(x_p)·4/3 π r³)`: each photon's power over σt where it was
     /// stored estimates the fluence, which is continuous across density edges; then the
-    /// local σs is applied. Consistent in heterogeneous media (the default).
+    /// local σs is applied. Consistent inside the medium, biased low near its boundaries.
     Fluence,
     /// `Λ·Σ p·ΔΦ/(4/3 π r³)`: fixes eq. 11's missing albedo factor but, like eq. 11, assumes
     /// σt constant over the gather sphere, so dense tissue lights thin neighbours.
@@ -143,7 +148,7 @@ impl Default for IntegratorParams {
             free_path: FreePath::Delta,
             shadow: ShadowEstimator::March,
             quadrature: Quadrature::Exact,
-            estimate: Estimate::Fluence,
+            estimate: Estimate::Masked,
             termination: 1e-3,
             shadow_cache: 0,
             ms_cache: 0,

@@ -417,3 +417,73 @@ fn same_seed_gives_bit_identical_images_with_one_and_two_threads() {
     assert_eq!(r1, r2);
     assert!(f1.is_finite() && mean_rgb(f1.layer(Layer::Multiple)) > 0.0);
 }
+
+#[test]
+fn estimate_forms_on_a_thin_slab_against_the_reference() {
+    // A slab 0.1 thick (σt = 10, albedo 0.8) seen face on: the gather sphere (nused 200
+    // of 40 000 photons) is wider than the slab. The masked estimate divides by the part of
+    // the sphere that holds medium; the plain fluence estimate divides by the whole sphere
+    // and comes out low; eq. 11 as printed is 1/Λ brighter than its albedo-weighted form.
+    let src = r#"
+[volume]
+phantom = { name = "slab", resolution = [32, 32, 32], range = [0.45, 0.55] }
+[sigma]
+t = 10
+albedo = 0.8
+[camera]
+eye = [-1.5, 0.5, 0.5]
+look_at = [0.5, 0.5, 0.5]
+up = [0, 0, 1]
+fov = 12
+resolution = [12, 12]
+[[lights]]
+type = "spot"
+position = [-1.2, -0.6, 0.9]
+target = [0.5, 0.5, 0.5]
+intensity = 10
+cone_angle = 25
+beam_width = 20
+[integrator]
+volume_photons = 40000
+nused = 200
+maxdist = 0.3
+stepsize = 0.002
+spp = 4
+"#;
+    let base = common::scene(src);
+    let (reference, _) = render_reference(&base, 4096, &|_| {}).unwrap();
+    let reference_mean = mean_rgb(reference.layer(Layer::Multiple));
+    let map = build_photon_map(&base);
+    let mut ratios = Vec::new();
+    for estimate in [
+        volphot::settings::Estimate::Masked,
+        volphot::settings::Estimate::Fluence,
+        volphot::settings::Estimate::Albedo,
+        volphot::settings::Estimate::Thesis,
+    ] {
+        let scene = base
+            .with_integrator(volphot::settings::IntegratorParams {
+                estimate,
+                ..base.integrator().clone()
+            })
+            .unwrap();
+        let out = render_march(&scene, &[&map], &[], &|_| {}).unwrap();
+        ratios.push((
+            estimate,
+            mean_rgb(out.films[0].layer(Layer::Multiple)) / reference_mean,
+        ));
+    }
+    eprintln!("multiple-scattering mean / reference on a thin slab: {ratios:?}");
+    let ratio = |i: usize| ratios[i].1;
+    assert!((ratio(0) - 1.0).abs() < 0.1, "masked {}", ratio(0));
+    assert!(
+        ratio(1) < 0.9 * ratio(0),
+        "fluence {} vs masked {}",
+        ratio(1),
+        ratio(0)
+    );
+    assert!(
+        (ratio(3) / ratio(2) - 1.25).abs() < 1e-3,
+        "eq. 11 is 1/Λ = 1.25 × the albedo form"
+    );
+}

@@ -140,7 +140,7 @@ fn march_key(params: &SceneParams) -> String {
     p.integrator.nused = 1;
     p.integrator.maxdist = 1.0;
     p.integrator.free_path = volphot::settings::FreePath::Delta;
-    p.integrator.estimate = volphot::settings::Estimate::Fluence;
+    p.integrator.estimate = volphot::settings::Estimate::Masked;
     p.integrator.multiple = false;
     p.integrator.reference_spp = 1;
     serde_json::to_string(&p).expect("scene params serialise")
@@ -152,7 +152,7 @@ fn photon_key(params: &SceneParams) -> String {
     let i = &mut p.integrator;
     i.nused = 1;
     i.maxdist = 1.0;
-    i.estimate = volphot::settings::Estimate::Fluence;
+    i.estimate = volphot::settings::Estimate::Masked;
     i.multiple = true;
     i.single = true;
     i.emission = false;

@@ -152,7 +152,7 @@ pub fn group_cells(
         p.integrator.nused = 1;
         p.integrator.maxdist = 1.0;
         p.integrator.free_path = volphot::settings::FreePath::Delta;
-        p.integrator.estimate = volphot::settings::Estimate::Fluence;
+        p.integrator.estimate = volphot::settings::Estimate::Masked;
         p.integrator.multiple = false;
         p.integrator.reference_spp = 1;
         let key = serde_json::to_string(&p).unwrap_or_default();
