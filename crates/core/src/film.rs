@@ -59,6 +59,7 @@ pub struct Film {
     height: usize,
     layers: [Vec<Vec3>; 3],
     variance: Option<[Vec<Vec3>; 3]>,
+    depth: Option<Vec<f32>>,
 }
 
 impl Film {
@@ -74,6 +75,7 @@ impl Film {
                 vec![Vec3::ZERO; n],
             ],
             variance: None,
+            depth: None,
         }
     }
 
@@ -88,6 +90,7 @@ impl Film {
             height,
             layers,
             variance: None,
+            depth: None,
         }
     }
 
@@ -96,6 +99,20 @@ impl Film {
         assert!(variance.iter().all(|l| l.len() == self.width * self.height));
         self.variance = Some(variance);
         self
+    }
+
+    /// Attaches a depth layer: per pixel, the distance from the eye at which the eye
+    /// transmittance fell below ½ (the visible surface), averaged over the pixel's samples
+    /// that reached it; `+∞` where none did.
+    pub fn with_depth(mut self, depth: Vec<f32>) -> Self {
+        assert_eq!(depth.len(), self.width * self.height);
+        self.depth = Some(depth);
+        self
+    }
+
+    /// The depth layer, when rendered.
+    pub fn depth(&self) -> Option<&[f32]> {
+        self.depth.as_deref()
     }
 
     /// Width in pixels.
@@ -190,6 +207,12 @@ impl Film {
                 push(&format!("var_{}", layer.name()), &var[layer.index()]);
             }
         }
+        if let Some(depth) = &self.depth {
+            list.push(AnyChannel::new(
+                Text::new_or_panic("depth.Z"),
+                FlatSamples::F32(depth.clone()),
+            ));
+        }
         let image = Image::from_encoded_channels(
             (self.width, self.height),
             Encoding::SMALL_LOSSLESS,
@@ -252,6 +275,18 @@ impl Film {
                 take("var_multiple")?,
                 take("var_emission")?,
             ]);
+        }
+        if let Some(z) = layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.to_string() == "depth.Z")
+        {
+            let depth: Vec<f32> = z.sample_data.values_as_f32().collect();
+            if depth.len() != n {
+                return Err(Error::format(path, "layer `depth` is incomplete"));
+            }
+            film.depth = Some(depth);
         }
         Ok(film)
     }
@@ -359,7 +394,9 @@ mod tests {
             vec![Vec3::ONE; 15],
             vec![Vec3::ZERO; 15],
         ];
-        let film = film.with_variance(var);
+        let film = film
+            .with_variance(var)
+            .with_depth((0..15).map(|i| i as f32 * 0.5).collect());
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("f.exr");
         film.write_exr(&p).unwrap();

@@ -300,6 +300,9 @@ struct RowCounters {
 struct Accumulator {
     single: Vec3,
     emission: Vec3,
+    /// Sum and count of the depths where the eye transmittance fell below ½.
+    depth_sum: f32,
+    depth_hits: u32,
     multiple: Vec<Vec3>,
     estimates: Vec<Vec3>,
     gather: GatherScratch,
@@ -310,6 +313,7 @@ struct Accumulator {
 struct Row {
     single: Vec<Vec3>,
     emission: Vec<Vec3>,
+    depth: Vec<f32>,
     multiple: Vec<Vec<Vec3>>,
     counters: RowCounters,
 }
@@ -442,6 +446,10 @@ impl Marcher<'_> {
             if s.emission {
                 acc.emission += self.medium.emission(x) * weight;
             }
+            if eye_t >= 0.5 && eye_t * segment_t < 0.5 {
+                acc.depth_sum += t;
+                acc.depth_hits += 1;
+            }
             eye_t *= segment_t;
             if eye_t < s.termination {
                 ControlFlow::Break(())
@@ -555,12 +563,15 @@ pub fn render_march(
             let mut row = Row {
                 single: vec![Vec3::ZERO; width],
                 emission: vec![Vec3::ZERO; width],
+                depth: vec![f32::INFINITY; width],
                 multiple: vec![vec![Vec3::ZERO; width]; variants.len()],
                 counters: RowCounters::default(),
             };
             let mut acc = Accumulator {
                 single: Vec3::ZERO,
                 emission: Vec3::ZERO,
+                depth_sum: 0.0,
+                depth_hits: 0,
                 multiple: vec![Vec3::ZERO; variants.len()],
                 estimates: vec![Vec3::ZERO; max_group],
                 gather: GatherScratch::default(),
@@ -571,6 +582,8 @@ pub fn render_march(
                 let pixel = (y * width + x) as u64;
                 acc.single = Vec3::ZERO;
                 acc.emission = Vec3::ZERO;
+                acc.depth_sum = 0.0;
+                acc.depth_hits = 0;
                 acc.multiple.iter_mut().for_each(|m| *m = Vec3::ZERO);
                 for sample in 0..spp {
                     let mut rng = Rng::stream2(settings.seed, Domain::Pixels, pixel, sample as u64);
@@ -580,6 +593,9 @@ pub fn render_march(
                 }
                 row.single[x] = acc.single * inv;
                 row.emission[x] = acc.emission * inv;
+                if acc.depth_hits > 0 {
+                    row.depth[x] = acc.depth_sum / acc.depth_hits as f32;
+                }
                 for (dst, m) in row.multiple.iter_mut().zip(&acc.multiple) {
                     dst[x] = *m * inv;
                 }
@@ -591,6 +607,7 @@ pub fn render_march(
         .collect();
     let mut single = Vec::with_capacity(width * height);
     let mut emission = Vec::with_capacity(width * height);
+    let mut depth = Vec::with_capacity(width * height);
     let mut multiple: Vec<Vec<Vec3>> = vec![Vec::with_capacity(width * height); variants.len()];
     let mut stats = MarchStats {
         eye_rays: (width * height) as u64 * spp as u64,
@@ -599,6 +616,7 @@ pub fn render_march(
     for row in rows {
         single.extend(row.single);
         emission.extend(row.emission);
+        depth.extend(row.depth);
         for (dst, src) in multiple.iter_mut().zip(row.multiple) {
             dst.extend(src);
         }
@@ -608,7 +626,7 @@ pub fn render_march(
     }
     let films = (0..n_films)
         .map(|i| {
-            let mut film = Film::new(width, height);
+            let mut film = Film::new(width, height).with_depth(depth.clone());
             film.set_layer(Layer::Single, single.clone());
             film.set_layer(Layer::Emission, emission.clone());
             if let Some(m) = multiple.get(i) {

@@ -247,12 +247,12 @@ impl Iterator for MajorantSegments<'_> {
     }
 }
 
-/// 64 points spread evenly through the unit ball (equal-volume shells, golden-angle
+/// 32 points spread evenly through the unit ball (equal-volume shells, golden-angle
 /// spirals), the same for every query so estimates stay deterministic.
 fn ball_points() -> &'static [Vec3] {
     static POINTS: std::sync::OnceLock<Vec<Vec3>> = std::sync::OnceLock::new();
     POINTS.get_or_init(|| {
-        let n = 64;
+        let n = 32;
         let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
         (0..n)
             .map(|i| {
@@ -399,7 +399,7 @@ impl Medium {
     }
 
     /// The fraction of the sphere of radius `r` around `center` that holds medium
-    /// (σt > 0), estimated at 64 fixed, evenly spread points plus the centre. Used to
+    /// (σt > 0), estimated at 32 fixed, evenly spread points plus the centre. Used to
     /// normalise photon-map estimates by the volume photons can actually occupy.
     pub fn occupancy(&self, center: Vec3, r: f32) -> f32 {
         let points = ball_points();

@@ -68,7 +68,7 @@ pub enum Estimate {
     /// `σs(x)·Σ p·ΔΦ_p / (σt(x_p)·V_m)` with `V_m` the part of the gather sphere that holds
     /// medium (σt > 0): photons exist only there, so dividing by the whole sphere dilutes
     /// the estimate wherever the sphere reaches into empty space (thin bone, surfaces).
-    /// `V_m` is estimated from 64 fixed points in the sphere. The default.
+    /// `V_m` is estimated from 32 fixed points in the sphere. The default.
     Masked,
     /// `σs(x)·Σ p·ΔΦ_p / (σt(x_p)·4/3 π r³)`: each photon's power over σt where it was
     /// stored estimates the fluence, which is continuous across density edges; then the

@@ -48,6 +48,29 @@ pub struct DiscoScore {
     pub area: f64,
 }
 
+/// What multiple scattering changes in the displayed image (thesis §1.1): detail, regions
+/// lit only by it, depth cues. All on tone-mapped (sRGB) luminance in [0, 1] over the
+/// object's pixels; `single` = the cell's single-scattering layer alone, `total` = what the
+/// cell displays.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ImageStats {
+    /// Mean Sobel gradient magnitude, single scattering only.
+    pub gradient_single: f64,
+    /// Mean Sobel gradient magnitude, displayed image.
+    pub gradient_total: f64,
+    /// Mean |L − G₂∗L| (fine local contrast, Gaussian σ = 2 px), single only.
+    pub detail_single: f64,
+    /// The same for the displayed image.
+    pub detail_total: f64,
+    /// Share of object pixels darker than 0.05 with single scattering but not in the
+    /// displayed image.
+    pub lit_by_multiple: f64,
+    /// Pearson correlation of luminance and depth (negative: farther is darker), single.
+    pub depth_corr_single: f64,
+    /// The same for the displayed image.
+    pub depth_corr_total: f64,
+}
+
 /// Timings of one cell, seconds.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct CellTimings {
@@ -100,6 +123,8 @@ pub struct CellRecord {
     pub mean_emission: f64,
     /// Disco-ball score of the multiple layer.
     pub disco: DiscoScore,
+    /// Detail, lit regions and depth cues of single vs displayed image.
+    pub image: ImageStats,
     /// Program version.
     pub version: String,
     /// Worker threads.

@@ -9,8 +9,8 @@ use std::time::Instant;
 use glam::Vec3;
 use volphot::film::{Film, Layer, to_srgb8};
 
-use crate::cells::{DiscoScore, ReferenceMetrics};
-use crate::disco::{Gray, disco_score};
+use crate::cells::{DiscoScore, ImageStats, ReferenceMetrics};
+use crate::disco::{Gray, disco_score, gaussian_blur};
 
 /// Luminance (Rec. 709).
 pub fn luminance(v: Vec3) -> f32 {
@@ -44,6 +44,112 @@ pub fn disco(film: &Film) -> DiscoScore {
             .collect(),
     };
     disco_score(&y, &mask)
+}
+
+/// Tone-mapped luminance in [0, 1] (sRGB encoding of each channel, then Rec. 709 weights).
+fn display_luminance(pixels: &[Vec3], exposure: f32) -> Vec<f32> {
+    to_srgb8(pixels, exposure)
+        .chunks_exact(3)
+        .map(|c| (0.2126 * c[0] as f32 + 0.7152 * c[1] as f32 + 0.0722 * c[2] as f32) / 255.0)
+        .collect()
+}
+
+fn sobel_mean(l: &[f32], w: usize, h: usize, mask: &[bool]) -> f64 {
+    let at = |x: usize, y: usize| l[y * w + x];
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for y in 1..h.saturating_sub(1) {
+        for x in 1..w.saturating_sub(1) {
+            if !mask[y * w + x] {
+                continue;
+            }
+            let gx = at(x + 1, y - 1) + 2.0 * at(x + 1, y) + at(x + 1, y + 1)
+                - at(x - 1, y - 1)
+                - 2.0 * at(x - 1, y)
+                - at(x - 1, y + 1);
+            let gy = at(x - 1, y + 1) + 2.0 * at(x, y + 1) + at(x + 1, y + 1)
+                - at(x - 1, y - 1)
+                - 2.0 * at(x, y - 1)
+                - at(x + 1, y - 1);
+            sum += ((gx * gx + gy * gy).sqrt() / 8.0) as f64;
+            n += 1;
+        }
+    }
+    if n == 0 { 0.0 } else { sum / n as f64 }
+}
+
+fn detail_mean(l: &[f32], w: usize, h: usize, mask: &[bool]) -> f64 {
+    let img = Gray {
+        width: w,
+        height: h,
+        data: l.to_vec(),
+    };
+    let blurred = gaussian_blur(&img, 2.0);
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for i in 0..l.len() {
+        if mask[i] {
+            sum += (l[i] - blurred.data[i]).abs() as f64;
+            n += 1;
+        }
+    }
+    if n == 0 { 0.0 } else { sum / n as f64 }
+}
+
+fn correlation(a: &[f32], b: &[f32], mask: &[bool]) -> f64 {
+    let pairs: Vec<(f64, f64)> = a
+        .iter()
+        .zip(b)
+        .zip(mask)
+        .filter(|((_, d), m)| **m && d.is_finite())
+        .map(|((x, y), _)| (*x as f64, *y as f64))
+        .collect();
+    let n = pairs.len() as f64;
+    if n < 3.0 {
+        return 0.0;
+    }
+    let (mx, my) = (
+        pairs.iter().map(|p| p.0).sum::<f64>() / n,
+        pairs.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+    for (x, y) in &pairs {
+        sxy += (x - mx) * (y - my);
+        sxx += (x - mx) * (x - mx);
+        syy += (y - my) * (y - my);
+    }
+    if sxx <= 0.0 || syy <= 0.0 {
+        0.0
+    } else {
+        sxy / (sxx * syy).sqrt()
+    }
+}
+
+/// Detail, lit regions and depth cues of the single-scattering layer vs the displayed
+/// image (see [`ImageStats`]).
+pub fn image_stats(film: &Film, shown: &[Vec3], exposure: f32) -> ImageStats {
+    let (w, h) = (film.width(), film.height());
+    let single = display_luminance(film.layer(Layer::Single), exposure);
+    let total = display_luminance(shown, exposure);
+    let mask: Vec<bool> = shown.iter().map(|v| luminance(*v) > 0.0).collect();
+    let object = mask.iter().filter(|m| **m).count().max(1) as f64;
+    let lit = single
+        .iter()
+        .zip(&total)
+        .zip(&mask)
+        .filter(|((s, t), m)| **m && **s < 0.05 && **t >= 0.05)
+        .count() as f64;
+    let depth: Vec<f32> = film
+        .depth()
+        .map(<[f32]>::to_vec)
+        .unwrap_or_else(|| vec![f32::INFINITY; w * h]);
+    ImageStats {
+        gradient_single: sobel_mean(&single, w, h, &mask),
+        gradient_total: sobel_mean(&total, w, h, &mask),
+        detail_single: detail_mean(&single, w, h, &mask),
+        detail_total: detail_mean(&total, w, h, &mask),
+        lit_by_multiple: lit / object,
+        depth_corr_single: correlation(&single, &depth, &mask),
+        depth_corr_total: correlation(&total, &depth, &mask),
+    }
 }
 
 /// Errors of `image` against `reference` (linear RGB, same size).
@@ -121,6 +227,33 @@ mod tests {
         assert_eq!(m.rel_mse, 0.0);
         assert!((m.ssim - 1.0).abs() < 1e-9, "{}", m.ssim);
         assert!(m.flip.abs() < 1e-6, "{}", m.flip);
+    }
+
+    #[test]
+    fn image_stats_see_detail_light_and_depth() {
+        // A ramp in depth that gets darker with distance; multiple scattering lights a
+        // region that single scattering leaves dark.
+        let (w, h) = (32, 32);
+        let mut film = Film::new(w, h);
+        let mut depth = vec![f32::INFINITY; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let d = 1.0 + x as f32 / w as f32;
+                depth[y * w + x] = d;
+                let single = if y < 8 { 0.0 } else { 0.6 / d };
+                film.set(Layer::Single, x, y, Vec3::splat(single));
+                film.set(Layer::Multiple, x, y, Vec3::splat(0.1));
+            }
+        }
+        let film = film.with_depth(depth);
+        let shown = displayed(&film, true, false);
+        let s = image_stats(&film, &shown, 0.0);
+        assert!((s.lit_by_multiple - 8.0 / 32.0).abs() < 1e-9, "{s:?}");
+        assert!(
+            s.depth_corr_total < s.depth_corr_single && s.depth_corr_single < 0.0,
+            "{s:?}"
+        );
+        assert!(s.gradient_single > 0.0 && s.detail_single > 0.0);
     }
 
     #[test]

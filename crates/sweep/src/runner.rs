@@ -857,13 +857,14 @@ fn write_cell(
     let p = &job.spec.params;
     let metrics_start = Instant::now();
     let disco = metrics::disco(film);
+    let shown = metrics::displayed(film, p.integrator.multiple, p.integrator.emission);
+    let image = metrics::image_stats(film, &shown, p.film.exposure);
     timings.metrics = metrics_start.elapsed().as_secs_f64();
     let staged = StagedDir::new(&out.cell(&job.hash))?;
     let dir = staged.path();
     let (w, h) = (film.width(), film.height());
     let exposure = p.film.exposure;
     film.write_exr(&dir.join("film.exr"))?;
-    let shown = metrics::displayed(film, p.integrator.multiple, p.integrator.emission);
     write_png(&dir.join("total.png"), w, h, &shown, exposure)?;
     write_png(
         &dir.join("single.png"),
@@ -897,6 +898,7 @@ fn write_cell(
         mean_multiple: film.mean(Layer::Multiple),
         mean_emission: film.mean(Layer::Emission),
         disco,
+        image,
         version: VERSION.to_string(),
         threads: rayon::current_num_threads(),
         host: crate::cells::hostname(),
