@@ -332,14 +332,18 @@ pub fn write_png_rgb8(path: &Path, width: usize, height: usize, rgb: &[u8]) -> R
     use image::ImageEncoder;
     assert_eq!(rgb.len(), width * height * 3);
     write_atomic_with(path, |w| {
-        image::codecs::png::PngEncoder::new(w)
-            .write_image(
-                rgb,
-                width as u32,
-                height as u32,
-                image::ExtendedColorType::Rgb8,
-            )
-            .map_err(std::io::Error::other)
+        image::codecs::png::PngEncoder::new_with_quality(
+            w,
+            image::codecs::png::CompressionType::Best,
+            image::codecs::png::FilterType::Adaptive,
+        )
+        .write_image(
+            rgb,
+            width as u32,
+            height as u32,
+            image::ExtendedColorType::Rgb8,
+        )
+        .map_err(std::io::Error::other)
     })
 }
 

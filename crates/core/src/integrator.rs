@@ -238,17 +238,30 @@ impl ScatterCache {
     }
 }
 
-/// Divides masked estimates by the medium's share of their gather sphere.
+/// Divides masked estimates by the medium's share of their gather sphere. Variants often
+/// share a radius (all that hit `maxdist`, or equal `nused` under different caps), so each
+/// distinct radius is measured once.
 fn mask_estimates(medium: &Medium, at: Vec3, masked: &[bool], radii: &[f32], values: &mut [Vec3]) {
+    let mut measured: [(f32, f32); 8] = [(f32::NAN, 0.0); 8];
+    let mut count = 0;
     for ((value, &m), &r) in values.iter_mut().zip(masked).zip(radii) {
-        if m && r > 0.0 {
-            let share = medium.occupancy(at, r);
-            *value = if share > 0.0 {
-                *value / share
-            } else {
-                Vec3::ZERO
-            };
+        if !m || r <= 0.0 {
+            continue;
         }
+        let share = match measured[..count].iter().find(|(radius, _)| *radius == r) {
+            Some(&(_, share)) => share,
+            None => {
+                let share = medium.occupancy(at, r);
+                measured[count % measured.len()] = (r, share);
+                count = (count + 1).min(measured.len());
+                share
+            }
+        };
+        *value = if share > 0.0 {
+            *value / share
+        } else {
+            Vec3::ZERO
+        };
     }
 }
 

@@ -490,12 +490,7 @@ impl Medium {
     /// Optical depth τ over `[t0, t1]` by ray marching with `step` and jitter `u` (§7.2.4).
     /// The interval must lie inside the box (as [`Medium::clip`] returns it).
     pub fn optical_depth_marched(&self, ray: &Ray, t0: f32, t1: f32, step: f32, u: f32) -> f32 {
-        let mut tau = 0.0f32;
-        self.march(ray, t0, t1, step, u, |t, w| {
-            tau += self.sigma_t_in_box(ray.at(t)) * w;
-            ControlFlow::Continue(())
-        });
-        tau
+        self.optical_depth_marched_until(ray, t0, t1, step, u, f32::INFINITY)
     }
 
     /// Optical depth by marching, stopping once τ exceeds `tau_max` (then the light is

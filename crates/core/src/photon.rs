@@ -56,8 +56,9 @@ pub struct PhotonStats {
     pub truncated: u64,
     /// Interactions per emitted photon.
     pub interactions_per_photon: f64,
-    /// Mean free-flight length that ended in an interaction (world units): the empirical
-    /// mean free path. Flights start where the photon entered the box or interacted last.
+    /// Mean length of the flights from one interaction to the next (world units): the
+    /// empirical mean free path inside the medium. Flights that leave the volume are not
+    /// counted (their length is censored), nor the first flight from the light.
     pub mean_flight_distance: f64,
     /// Median of the same flights.
     pub median_flight_distance: f64,
@@ -221,7 +222,11 @@ fn trace_one(
             break;
         };
         let position = ray.at(t);
-        out.flights.push(t - t0);
+        // The empirical mean free path counts flights between interactions; the first
+        // flight, from where the photon entered the box, mostly crosses empty space.
+        if interactions > 0 {
+            out.flights.push(t - t0);
+        }
         interactions += 1;
         if scattered >= 1 {
             out.photons.push(Photon {

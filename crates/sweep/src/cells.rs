@@ -20,9 +20,15 @@ use crate::experiment::CellSpec;
 /// Program version recorded in every output.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
+/// Version of the reference metrics; stored metrics of another version are recomputed.
+pub const REFERENCE_METRICS_VERSION: u32 = 2;
+
 /// Image-error metrics against the reference.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct ReferenceMetrics {
+    /// [`REFERENCE_METRICS_VERSION`] when computed.
+    #[serde(default)]
+    pub version: u32,
     /// Which reference (its content address).
     pub reference: String,
     /// Root-mean-square error of linear radiance.
@@ -33,6 +39,13 @@ pub struct ReferenceMetrics {
     pub ssim: f64,
     /// Mean FLIP error of the tone-mapped images (nv-flip, 0 = identical).
     pub flip: f64,
+    /// Disco score of the multiple layer relative to the reference's (blobs the truth
+    /// lacks); see `disco::relative_disco_score`.
+    #[serde(default)]
+    pub disco_excess: f64,
+    /// Blobs counted by that score.
+    #[serde(default)]
+    pub disco_excess_blobs: u64,
     /// Seconds to compute these.
     pub seconds: f64,
 }
@@ -69,6 +82,11 @@ pub struct ImageStats {
     pub depth_corr_single: f64,
     /// The same for the displayed image.
     pub depth_corr_total: f64,
+    /// Share of object pixels clipped to white in the displayed image ("over-brightening").
+    pub clipped_total: f64,
+    /// Share of object pixels whose eye ray reached transmittance ½ (an opaque look);
+    /// low values mean a transparent rendering (thesis C6).
+    pub opaque_share: f64,
 }
 
 /// Timings of one cell, seconds.
@@ -262,6 +280,61 @@ pub const METRIC_COLUMNS: &[MetricColumn] = &[
         value: |_, m| m.map(|m| m.flip),
     },
     MetricColumn {
+        key: "gradient_single",
+        header: "gradient_single [1/px]",
+        value: |r, _| Some(r.image.gradient_single),
+    },
+    MetricColumn {
+        key: "gradient_total",
+        header: "gradient_total [1/px]",
+        value: |r, _| Some(r.image.gradient_total),
+    },
+    MetricColumn {
+        key: "detail_single",
+        header: "detail_single [1]",
+        value: |r, _| Some(r.image.detail_single),
+    },
+    MetricColumn {
+        key: "detail_total",
+        header: "detail_total [1]",
+        value: |r, _| Some(r.image.detail_total),
+    },
+    MetricColumn {
+        key: "lit_by_multiple",
+        header: "lit_by_multiple [1]",
+        value: |r, _| Some(r.image.lit_by_multiple),
+    },
+    MetricColumn {
+        key: "depth_corr_single",
+        header: "depth_corr_single [1]",
+        value: |r, _| Some(r.image.depth_corr_single),
+    },
+    MetricColumn {
+        key: "depth_corr_total",
+        header: "depth_corr_total [1]",
+        value: |r, _| Some(r.image.depth_corr_total),
+    },
+    MetricColumn {
+        key: "clipped_total",
+        header: "clipped_total [1]",
+        value: |r, _| Some(r.image.clipped_total),
+    },
+    MetricColumn {
+        key: "opaque_share",
+        header: "opaque_share [1]",
+        value: |r, _| Some(r.image.opaque_share),
+    },
+    MetricColumn {
+        key: "disco_excess",
+        header: "disco_excess [1]",
+        value: |_, m| m.map(|m| m.disco_excess),
+    },
+    MetricColumn {
+        key: "disco_excess_blobs",
+        header: "disco_excess_blobs [count]",
+        value: |_, m| m.map(|m| m.disco_excess_blobs as f64),
+    },
+    MetricColumn {
         key: "disco_energy",
         header: "disco_energy [1]",
         value: |r, _| Some(r.disco.energy),
@@ -371,7 +444,9 @@ pub fn read_record(dir: &Path) -> Result<CellRecord> {
 /// Reads the reference metrics of a cell for one reference, if computed.
 pub fn read_reference_metrics(dir: &Path, reference: &str) -> Option<ReferenceMetrics> {
     let text = std::fs::read_to_string(dir.join(format!("vs-{reference}.json"))).ok()?;
-    serde_json::from_str(&text).ok()
+    serde_json::from_str::<ReferenceMetrics>(&text)
+        .ok()
+        .filter(|m| m.version == REFERENCE_METRICS_VERSION)
 }
 
 /// A cell folder being filled: a temporary sibling renamed into place by [`StagedDir::commit`].

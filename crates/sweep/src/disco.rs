@@ -227,6 +227,44 @@ pub fn disco_score(y: &Gray, mask: &[bool]) -> DiscoScore {
     }
 }
 
+/// The disco score of `y` relative to a reference rendering of the same layer (e.g. the
+/// path tracer's multiple-scattering layer): the ratio `y / G_1.5px∗reference` is scored
+/// instead of `y`, so structure that is really there (thin bright bone) cancels and only
+/// blobs the reference lacks remain. Pixels where the blurred reference is below 5 % of
+/// its mean are left out (the ratio is unstable there).
+pub fn relative_disco_score(y: &Gray, reference: &Gray, mask: &[bool]) -> DiscoScore {
+    let blurred = gaussian_blur(reference, MIN_SCALE);
+    let inside: Vec<f32> = blurred
+        .data
+        .iter()
+        .zip(mask)
+        .filter(|(_, m)| **m)
+        .map(|(v, _)| *v)
+        .collect();
+    if inside.is_empty() {
+        return DiscoScore::default();
+    }
+    let mean = inside.iter().map(|&v| v as f64).sum::<f64>() / inside.len() as f64;
+    let floor = (0.05 * mean) as f32;
+    let mask: Vec<bool> = mask
+        .iter()
+        .zip(&blurred.data)
+        .map(|(&m, &b)| m && b > floor)
+        .collect();
+    let ratio = Gray {
+        width: y.width,
+        height: y.height,
+        data: y
+            .data
+            .iter()
+            .zip(&blurred.data)
+            .zip(&mask)
+            .map(|((&v, &b), &m)| if m { v / b } else { 0.0 })
+            .collect(),
+    };
+    disco_score(&ratio, &mask)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -317,6 +355,41 @@ mod tests {
         // Weak blobs (10 %) stay below the threshold.
         let (img, mask) = synthetic(&SIX, 6.0, 0.1, 3);
         assert_eq!(disco_score(&img, &mask).blobs, 0);
+    }
+
+    /// A background with real bright structures (four Gaussian bumps of contrast 1): the
+    /// plain score counts them; scored relative to a reference that has them too, only
+    /// planted artifacts count.
+    #[test]
+    fn relative_score_ignores_structure_the_reference_has() {
+        let bumps = [
+            (60.0f32, 130.0f32),
+            (128.0, 200.0),
+            (200.0, 140.0),
+            (128.0, 110.0),
+        ];
+        let (reference, mask) = synthetic(&bumps, 6.0, 1.0, 11);
+        let (clean, _) = synthetic(&bumps, 6.0, 1.0, 12);
+        let plain = disco_score(&clean, &mask);
+        assert!(
+            plain.blobs >= 3,
+            "the plain score sees the real bumps: {plain:?}"
+        );
+        let rel = relative_disco_score(&clean, &reference, &mask);
+        assert_eq!(rel.blobs, 0, "{rel:?}");
+        assert!(rel.energy < 0.002, "{rel:?}");
+        // Plant artifacts on top of the structured image.
+        let mut with = clean.clone();
+        let (artifacts, _) = synthetic(&SIX, 5.0, 1.2, 12);
+        let (plain_bg, _) = synthetic(&[], 5.0, 0.0, 12);
+        for i in 0..with.data.len() {
+            if plain_bg.data[i] > 0.0 {
+                with.data[i] *= artifacts.data[i] / plain_bg.data[i];
+            }
+        }
+        let rel = relative_disco_score(&with, &reference, &mask);
+        assert_eq!(rel.blobs, 6, "{rel:?}");
+        assert!(rel.energy > 0.005, "{rel:?}");
     }
 
     #[test]

@@ -169,6 +169,9 @@ pub struct PlotSpec {
     /// Logarithmic y axis.
     #[serde(default)]
     pub log_y: bool,
+    /// Only cells with these axis values (e.g. `{ scene = "scenes/foot.toml" }`).
+    #[serde(default, rename = "where")]
+    pub filter: Table,
 }
 
 /// A contact sheet: images in a grid labelled by axis values.
@@ -183,6 +186,9 @@ pub struct SheetSpec {
     /// `total`, `single`, `multiple` or `diff`.
     #[serde(default = "default_layer")]
     pub layer: String,
+    /// Only cells with these axis values.
+    #[serde(default, rename = "where")]
+    pub filter: Table,
 }
 
 fn default_layer() -> String {
@@ -269,7 +275,7 @@ fn flatten_axes(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
 }
 
 /// Flattens nested override tables into `(dotted key, value)`.
-fn flatten_set(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
+pub fn flatten_set(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
     for (k, v) in table {
         let key = if prefix.is_empty() {
             k.clone()
@@ -579,7 +585,10 @@ impl Experiment {
             }
         }
         for (pi, p) in file.plots.iter().enumerate() {
-            for k in std::iter::once(&p.x).chain(p.series.iter()) {
+            for k in std::iter::once(&p.x)
+                .chain(p.series.iter())
+                .chain(p.filter.keys())
+            {
                 if !seen.contains(k) {
                     return Err(located(
                         path,
@@ -608,7 +617,10 @@ impl Experiment {
             }
         }
         for (si, s) in file.sheets.iter().enumerate() {
-            for k in std::iter::once(&s.rows).chain(s.cols.iter()) {
+            for k in std::iter::once(&s.rows)
+                .chain(s.cols.iter())
+                .chain(s.filter.keys())
+            {
                 if !seen.contains(k) {
                     return Err(located(
                         path,

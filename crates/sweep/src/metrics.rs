@@ -141,6 +141,17 @@ pub fn image_stats(film: &Film, shown: &[Vec3], exposure: f32) -> ImageStats {
         .depth()
         .map(<[f32]>::to_vec)
         .unwrap_or_else(|| vec![f32::INFINITY; w * h]);
+    let shown8 = to_srgb8(shown, exposure);
+    let clipped = shown8
+        .chunks_exact(3)
+        .zip(&mask)
+        .filter(|(c, m)| **m && c.iter().any(|&v| v >= 254))
+        .count() as f64;
+    let opaque = depth
+        .iter()
+        .zip(&mask)
+        .filter(|(d, m)| **m && d.is_finite())
+        .count() as f64;
     ImageStats {
         gradient_single: sobel_mean(&single, w, h, &mask),
         gradient_total: sobel_mean(&total, w, h, &mask),
@@ -149,7 +160,24 @@ pub fn image_stats(film: &Film, shown: &[Vec3], exposure: f32) -> ImageStats {
         lit_by_multiple: lit / object,
         depth_corr_single: correlation(&single, &depth, &mask),
         depth_corr_total: correlation(&total, &depth, &mask),
+        clipped_total: clipped / object,
+        opaque_share: opaque / object,
     }
+}
+
+/// The disco score of a film's multiple layer relative to a reference film's.
+pub fn disco_excess(film: &Film, reference: &Film) -> DiscoScore {
+    let gray = |f: &Film| Gray {
+        width: f.width(),
+        height: f.height(),
+        data: f
+            .layer(Layer::Multiple)
+            .iter()
+            .map(|v| luminance(*v))
+            .collect(),
+    };
+    let mask: Vec<bool> = film.total().iter().map(|v| luminance(*v) > 0.0).collect();
+    crate::disco::relative_disco_score(&gray(film), &gray(reference), &mask)
 }
 
 /// Errors of `image` against `reference` (linear RGB, same size).
@@ -181,11 +209,14 @@ pub fn compare(
     let ssim = ssim(&a8, &b8, width as u32, height as u32);
     let flip = flip(&a8, &b8, width as u32, height as u32);
     ReferenceMetrics {
+        version: crate::cells::REFERENCE_METRICS_VERSION,
         reference: reference_key.to_string(),
         rmse,
         rel_mse,
         ssim,
         flip,
+        disco_excess: 0.0,
+        disco_excess_blobs: 0,
         seconds: start.elapsed().as_secs_f64(),
     }
 }

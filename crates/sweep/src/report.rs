@@ -189,12 +189,7 @@ pub fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
             reference = read_reference_metrics(&dir, key);
             if reference.is_none() && read_reference_record(&out.reference(key)).is_ok() {
                 let film = Film::read_exr(&dir.join("film.exr"))?;
-                let shown = crate::metrics::displayed(
-                    &film,
-                    r.scene.integrator.multiple,
-                    r.scene.integrator.emission,
-                );
-                compute_reference_metrics(out, &p.hash, key, &r.scene, &shown)?;
+                compute_reference_metrics(out, &p.hash, key, &r.scene, &film)?;
                 reference = read_reference_metrics(&dir, key);
             }
         }
@@ -291,6 +286,20 @@ pub fn cells_table(plan: &PlanRecord, cells: &[Collected]) -> Table {
     Table { headers, rows }
 }
 
+/// Whether a cell's axis values match a `where` table (numbers compare by value).
+fn matches(c: &PlannedCell, filter: &toml::Table) -> bool {
+    filter.iter().all(|(k, v)| {
+        let want = crate::runner::toml_to_json(v);
+        match (axis_value(c, k), want) {
+            (Some(a), b) if a == b => true,
+            (Some(serde_json::Value::Number(a)), serde_json::Value::Number(b)) => {
+                a.as_f64() == b.as_f64()
+            }
+            _ => false,
+        }
+    })
+}
+
 fn axis_value(c: &PlannedCell, key: &str) -> Option<serde_json::Value> {
     c.axes
         .iter()
@@ -357,16 +366,20 @@ fn sheet_specs(plan: &PlanRecord, experiment: &Experiment) -> Vec<SheetSpec> {
                 rows: rows.clone(),
                 cols: plan.axes.get(1).cloned(),
                 layer: layer.into(),
+                filter: Default::default(),
             });
         }
     }
     specs
 }
 
-fn distinct_values(cells: &[Collected], key: &str) -> Vec<serde_json::Value> {
+fn distinct_values<'a, C: std::borrow::Borrow<Collected> + 'a>(
+    cells: impl IntoIterator<Item = &'a C>,
+    key: &str,
+) -> Vec<serde_json::Value> {
     let mut out: Vec<serde_json::Value> = Vec::new();
     for c in cells {
-        if let Some(v) = axis_value(&c.planned, key)
+        if let Some(v) = axis_value(&c.borrow().planned, key)
             && !out.contains(&v)
         {
             out.push(v);
@@ -403,6 +416,11 @@ fn contact_sheets(
         return Ok(());
     }
     for (si, spec) in specs.iter().enumerate() {
+        let selected: Vec<&Collected> = cells
+            .iter()
+            .filter(|c| matches(&c.planned, &spec.filter))
+            .collect();
+        let cells = selected.as_slice();
         let rest: Vec<&String> = plan
             .axes
             .iter()
@@ -751,6 +769,7 @@ fn plot_specs(plan: &PlanRecord, cells: &[Collected], experiment: &Experiment) -
             series: plan.axes.iter().find(|a| *a != x).cloned(),
             log_x: positive && spread > 20.0,
             log_y: false,
+            filter: Default::default(),
         });
     }
     specs
@@ -765,14 +784,18 @@ fn plots(
 ) -> Result<()> {
     let dir = out.figures().join("plots");
     std::fs::create_dir_all(&dir)?;
-    for spec in plot_specs(plan, cells, experiment) {
+    for (pi, spec) in plot_specs(plan, cells, experiment).iter().enumerate() {
+        let selected: Vec<&Collected> = cells
+            .iter()
+            .filter(|c| matches(&c.planned, &spec.filter))
+            .collect();
         for metric in &spec.y {
             let Some(column) = METRIC_COLUMNS.iter().find(|m| m.key == metric) else {
                 continue;
             };
             // series value → x → values (averaged over the remaining axes).
             let mut lines: BTreeMap<String, BTreeMap<i64, (f64, Vec<f64>)>> = BTreeMap::new();
-            for c in cells {
+            for c in &selected {
                 let (Some(r), Some(x)) = (
                     &c.record,
                     axis_value(&c.planned, &spec.x).as_ref().and_then(numeric),
@@ -813,13 +836,31 @@ fn plots(
                         .collect(),
                 })
                 .collect();
-            let averaged = plan.axes.len() > 1 + usize::from(spec.series.is_some());
+            let averaged =
+                plan.axes.len() > 1 + usize::from(spec.series.is_some()) + spec.filter.len();
+            let fixed = spec
+                .filter
+                .iter()
+                .map(|(k, v)| {
+                    format!(
+                        "{} = {}",
+                        crate::experiment::short_key(k),
+                        crate::experiment::value_text(v)
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(", ");
             let plot = Plot {
                 title: format!(
-                    "{metric} vs {}{}",
+                    "{metric} vs {}{}{}",
                     crate::experiment::short_key(&spec.x),
+                    if fixed.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" ({fixed})")
+                    },
                     if averaged {
-                        " (mean over other axes)"
+                        ", mean over other axes"
                     } else {
                         ""
                     }
@@ -830,7 +871,7 @@ fn plots(
                 log_x: spec.log_x,
                 log_y: spec.log_y,
             };
-            let stem = dir.join(format!("{}_vs_{}", metric, spec.x.replace('.', "_")));
+            let stem = dir.join(format!("p{pi}_{}_vs_{}", metric, spec.x.replace('.', "_")));
             write_plot(&stem, &plot)?;
             figures
                 .plots

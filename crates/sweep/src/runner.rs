@@ -134,7 +134,7 @@ fn axes_json(spec: &CellSpec) -> Vec<(String, serde_json::Value)> {
 
 /// Parameters that only change the multiple-scattering layer (cells differing only in
 /// these share a march).
-fn march_key(params: &SceneParams) -> String {
+pub fn march_key(params: &SceneParams) -> String {
     let mut p = params.clone();
     p.integrator.volume_photons = 0;
     p.integrator.nused = 1;
@@ -201,7 +201,7 @@ pub fn reference_params(params: &SceneParams, spec: &ReferenceSpec) -> Result<Sc
     p.integrator = integrator;
     let mut table = toml::Table::try_from(&p).context("serialising scene")?;
     let mut set = Vec::new();
-    flatten(&spec.set, "", &mut set);
+    crate::experiment::flatten_set(&spec.set, "", &mut set);
     for (k, v) in set {
         set_key(&mut table, &k, v).map_err(anyhow::Error::msg)?;
     }
@@ -210,20 +210,6 @@ pub fn reference_params(params: &SceneParams, spec: &ReferenceSpec) -> Result<Sc
         toml::from_str(&text).map_err(|e| anyhow::anyhow!("reference scene: {}", e.message()))?;
     volphot::scene::validate_params(&p).map_err(|e| anyhow::anyhow!("reference scene: {e}"))?;
     Ok(p)
-}
-
-fn flatten(table: &toml::Table, prefix: &str, out: &mut Vec<(String, toml::Value)>) {
-    for (k, v) in table {
-        let key = if prefix.is_empty() {
-            k.clone()
-        } else {
-            format!("{prefix}.{k}")
-        };
-        match v {
-            toml::Value::Table(t) if k != "phantom" => flatten(t, &key, out),
-            other => out.push((key, other.clone())),
-        }
-    }
 }
 
 /// The content address of a cell's reference: physics + reference settings (not its spp,
@@ -910,7 +896,7 @@ fn write_cell(
     staged.commit()?;
     let _ = std::fs::remove_file(out.failure(&job.hash));
     if let Some(key) = &job.reference {
-        compute_reference_metrics(out, &job.hash, key, p, &shown)?;
+        compute_reference_metrics(out, &job.hash, key, p, film)?;
     }
     Ok(())
 }
@@ -922,7 +908,7 @@ pub fn compute_reference_metrics(
     hash: &str,
     key: &str,
     params: &SceneParams,
-    shown: &[glam::Vec3],
+    film: &Film,
 ) -> Result<()> {
     let ref_dir = out.reference(key);
     if read_reference_record(&ref_dir).is_err() {
@@ -941,7 +927,13 @@ pub fn compute_reference_metrics(
         params.integrator.multiple,
         params.integrator.emission,
     );
-    let m = metrics::compare(shown, &ref_img, w, h, params.film.exposure, key);
+    let shown = metrics::displayed(film, params.integrator.multiple, params.integrator.emission);
+    let mut m = metrics::compare(&shown, &ref_img, w, h, params.film.exposure, key);
+    if params.integrator.multiple {
+        let excess = metrics::disco_excess(film, &reference);
+        m.disco_excess = excess.energy;
+        m.disco_excess_blobs = excess.blobs;
+    }
     volphot::fsutil::write_atomic(
         &out.cell(hash).join(format!("vs-{key}.json")),
         serde_json::to_string_pretty(&m)?.as_bytes(),

@@ -146,16 +146,7 @@ pub fn group_cells(
 ) -> Vec<Vec<usize>> {
     let mut groups: Vec<(String, Vec<usize>)> = Vec::new();
     for c in cells {
-        let mut p = c.params.clone();
-        // The same neutralisation as the runner's march key.
-        p.integrator.volume_photons = 0;
-        p.integrator.nused = 1;
-        p.integrator.maxdist = 1.0;
-        p.integrator.free_path = volphot::settings::FreePath::Delta;
-        p.integrator.estimate = volphot::settings::Estimate::Masked;
-        p.integrator.multiple = false;
-        p.integrator.reference_spp = 1;
-        let key = serde_json::to_string(&p).unwrap_or_default();
+        let key = crate::runner::march_key(&c.params);
         match groups.iter_mut().find(|(k, _)| *k == key) {
             Some((_, v)) => v.push(c.index),
             None => groups.push((key, vec![c.index])),

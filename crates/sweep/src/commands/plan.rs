@@ -61,19 +61,16 @@ pub fn run(args: &PlanArgs) -> Result<ExitCode> {
     for (c, hash) in cells.iter().zip(&hashes) {
         let est = estimate_seconds(&c.params);
         // Cells sharing a march cost roughly one march plus their gathers.
-        let key = serde_json::to_string(&(
-            &c.params.volume,
-            &c.params.camera,
-            c.params.integrator.stepsize,
-            c.params.integrator.spp,
-        ))
-        .unwrap_or_default();
-        marches.insert(key);
+        marches.insert(if exp.share {
+            crate::runner::march_key(&c.params)
+        } else {
+            hash.clone()
+        });
         total += est;
         println!("{:>5}  {:<16}  {:>9.1}  {}", c.index, hash, est, c.label());
     }
     println!(
-        "estimated {:.0} s of rendering if every cell were rendered alone (rough, 2 cores); cells sharing eye rays: up to {} march group(s). Planned in {:.3} s.",
+        "estimated {:.0} s of rendering if every cell were rendered alone (rough, 2 cores); the cells form {} march group(s) that share eye rays. Planned in {:.3} s.",
         total,
         marches.len(),
         plan_seconds
