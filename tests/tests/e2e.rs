@@ -180,10 +180,26 @@ fn phantom_grid_runs_reports_and_resumes() {
     let stderr = String::from_utf8_lossy(&second.stderr);
     assert!(stderr.contains("4 already done, 0 rendered"), "{stderr}");
 
-    // `sweep report` regenerates from disk alone.
+    // `sweep report` regenerates from disk alone, and recomputes image statistics that an
+    // older version wrote (here: a record stripped back to the pre-versioning form).
+    let records: Vec<PathBuf> = walk(&out.join("cells"))
+        .into_iter()
+        .filter(|p| p.ends_with("cell.json"))
+        .collect();
+    let mut record: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&records[0]).unwrap()).unwrap();
+    let fresh = record["image"].clone();
+    for key in ["version", "luma_single", "luma_total"] {
+        record["image"].as_object_mut().unwrap().remove(key);
+    }
+    record["image"]["gradient_total"] = serde_json::json!(0.0);
+    std::fs::write(&records[0], serde_json::to_string(&record).unwrap()).unwrap();
     std::fs::remove_file(out.join("report.md")).unwrap();
     run_ok(sweep().arg("report").arg(&out));
     assert!(out.join("report.md").is_file());
+    let refreshed: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&records[0]).unwrap()).unwrap();
+    assert_eq!(refreshed["image"], fresh);
 }
 
 fn walk(dir: &Path) -> Vec<PathBuf> {

@@ -23,6 +23,10 @@ pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 /// Version of the reference metrics; stored metrics of another version are recomputed.
 pub const REFERENCE_METRICS_VERSION: u32 = 2;
 
+/// Version of [`ImageStats`]; records with an older one are recomputed from the cell's
+/// `film.exr` when a report is collected (version 2 added the mean display luminance).
+pub const IMAGE_STATS_VERSION: u32 = 2;
+
 /// Image-error metrics against the reference.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct ReferenceMetrics {
@@ -67,6 +71,15 @@ pub struct DiscoScore {
 /// cell displays.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct ImageStats {
+    /// [`IMAGE_STATS_VERSION`] when computed (0 in records written before versioning).
+    #[serde(default)]
+    pub version: u32,
+    /// Mean display luminance, single scattering only.
+    #[serde(default)]
+    pub luma_single: f64,
+    /// Mean display luminance of the displayed image.
+    #[serde(default)]
+    pub luma_total: f64,
     /// Mean Sobel gradient magnitude, single scattering only.
     pub gradient_single: f64,
     /// Mean Sobel gradient magnitude, displayed image.
@@ -159,6 +172,10 @@ pub struct MetricColumn {
     pub header: &'static str,
     /// Extractor.
     pub value: fn(&CellRecord, Option<&ReferenceMetrics>) -> Option<f64>,
+}
+
+fn ratio(a: f64, b: f64) -> Option<f64> {
+    (b > 0.0).then(|| a / b)
 }
 
 fn extent_pct(r: &CellRecord, d: f64) -> f64 {
@@ -318,6 +335,28 @@ pub const METRIC_COLUMNS: &[MetricColumn] = &[
         key: "clipped_total",
         header: "clipped_total [1]",
         value: |r, _| Some(r.image.clipped_total),
+    },
+    MetricColumn {
+        key: "luma_single",
+        header: "luma_single [1]",
+        value: |r, _| Some(r.image.luma_single),
+    },
+    MetricColumn {
+        key: "luma_total",
+        header: "luma_total [1]",
+        value: |r, _| Some(r.image.luma_total),
+    },
+    // Local contrast relative to brightness (Weber-like): whether multiple scattering adds
+    // detail, or only makes the same detail brighter (thesis §1.1, C8 "not more detail").
+    MetricColumn {
+        key: "contrast_single",
+        header: "contrast_single [1]",
+        value: |r, _| ratio(r.image.detail_single, r.image.luma_single),
+    },
+    MetricColumn {
+        key: "contrast_total",
+        header: "contrast_total [1]",
+        value: |r, _| ratio(r.image.detail_total, r.image.luma_total),
     },
     MetricColumn {
         key: "opaque_share",

@@ -152,7 +152,18 @@ pub fn image_stats(film: &Film, shown: &[Vec3], exposure: f32) -> ImageStats {
         .zip(&mask)
         .filter(|(d, m)| **m && d.is_finite())
         .count() as f64;
+    let mean = |l: &[f32]| {
+        l.iter()
+            .zip(&mask)
+            .filter(|(_, m)| **m)
+            .map(|(v, _)| *v as f64)
+            .sum::<f64>()
+            / object
+    };
     ImageStats {
+        version: crate::cells::IMAGE_STATS_VERSION,
+        luma_single: mean(&single),
+        luma_total: mean(&total),
         gradient_single: sobel_mean(&single, w, h, &mask),
         gradient_total: sobel_mean(&total, w, h, &mask),
         detail_single: detail_mean(&single, w, h, &mask),
@@ -285,6 +296,28 @@ mod tests {
             "{s:?}"
         );
         assert!(s.gradient_single > 0.0 && s.detail_single > 0.0);
+        assert_eq!(s.version, crate::cells::IMAGE_STATS_VERSION);
+        // The uniform multiple layer brightens without adding structure.
+        assert!(s.luma_total > s.luma_single && s.luma_single > 0.0, "{s:?}");
+    }
+
+    #[test]
+    fn uniform_brightening_lowers_relative_contrast() {
+        // A checkerboard plus a constant: absolute detail stays (almost) the same after
+        // tone mapping compresses it a little, but contrast relative to luminance falls.
+        let (w, h) = (32, 32);
+        let mut film = Film::new(w, h);
+        for y in 0..h {
+            for x in 0..w {
+                let v = if (x + y) % 2 == 0 { 0.05 } else { 0.15 };
+                film.set(Layer::Single, x, y, Vec3::splat(v));
+                film.set(Layer::Multiple, x, y, Vec3::splat(0.3));
+            }
+        }
+        let s = image_stats(&film, &displayed(&film, true, false), 0.0);
+        let single = s.detail_single / s.luma_single;
+        let total = s.detail_total / s.luma_total;
+        assert!(total < 0.6 * single, "{single} vs {total}");
     }
 
     #[test]

@@ -10,13 +10,14 @@ use anyhow::{Context, Result};
 use volphot::film::{Film, Layer};
 
 use crate::cells::{
-    CellRecord, METRIC_COLUMNS, OutputDir, ReferenceMetrics, is_done, read_record,
-    read_reference_metrics,
+    CellRecord, IMAGE_STATS_VERSION, METRIC_COLUMNS, OutputDir, ReferenceMetrics, is_done,
+    read_record, read_reference_metrics,
 };
 use crate::experiment::{Experiment, PlotSpec, SheetSpec};
 use crate::figures::{
     Rgb8, Tile, amplified_difference, auto_gain, contact_sheet, sig3, signed_difference,
 };
+use crate::metrics;
 use crate::plots::{Plot, Series, write_plot};
 use crate::runner::{
     PlanRecord, PlannedCell, compute_reference_metrics, read_plan, read_reference_record,
@@ -180,7 +181,11 @@ pub fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
     for p in &plan.cells {
         let dir = out.cell(&p.hash);
         let record = if is_done(&dir) {
-            Some(read_record(&dir)?)
+            let mut record = read_record(&dir)?;
+            if record.image.version != IMAGE_STATS_VERSION {
+                refresh_image_stats(&dir, &mut record)?;
+            }
+            Some(record)
         } else {
             None
         };
@@ -206,6 +211,20 @@ pub fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
         });
     }
     Ok((plan, cells))
+}
+
+/// Recomputes a record's image statistics from its `film.exr` (they are cheap next to the
+/// render) and stores the updated record, so older outputs gain newer columns.
+fn refresh_image_stats(dir: &Path, record: &mut CellRecord) -> Result<()> {
+    let film = Film::read_exr(&dir.join("film.exr"))?;
+    let p = &record.scene;
+    let shown = metrics::displayed(&film, p.integrator.multiple, p.integrator.emission);
+    record.image = metrics::image_stats(&film, &shown, p.film.exposure);
+    volphot::fsutil::write_atomic(
+        &dir.join("cell.json"),
+        serde_json::to_string_pretty(record)?.as_bytes(),
+    )?;
+    Ok(())
 }
 
 /// The `cells.csv` table.
