@@ -1,0 +1,245 @@
+//! The HTML report in a real browser: headless Chromium (Debian's `chromium`, installed by
+//! `.ci/run` when missing) opens `report.html` from disk; every image decodes, every link
+//! resolves, nothing reaches the console as an error, and a full-page screenshot is saved
+//! next to the report (`report-screenshot.png`) for a person to look at.
+//!
+//! Without Chromium the test says so and passes, except under `CI=true`, where it fails.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+use headless_chrome::protocol::cdp::types::Event;
+use headless_chrome::protocol::cdp::{Log, Page, Runtime};
+use headless_chrome::{Browser, LaunchOptions};
+use volphot_tests::{real_data_required, run_ok, sweep, workspace};
+
+/// Chromium from `$CHROMIUM` or the usual Debian paths.
+fn chromium() -> Option<PathBuf> {
+    std::env::var_os("CHROMIUM")
+        .map(PathBuf::from)
+        .into_iter()
+        .chain(
+            ["/usr/bin/chromium", "/usr/bin/chromium-browser"]
+                .into_iter()
+                .map(PathBuf::from),
+        )
+        .find(|p| p.is_file())
+}
+
+/// A small phantom sweep with every kind of figure: contact sheet, plot, layer differences,
+/// reference comparison.
+fn small_report(dir: &Path) -> PathBuf {
+    let scene = workspace().join("experiments/scenes/phantom-engine.toml");
+    let exp = dir.join("browser.toml");
+    std::fs::write(
+        &exp,
+        format!(
+            r#"
+name = "browser"
+scene = "{}"
+[set]
+"volume.phantom.resolution" = [24, 24, 24]
+"camera.resolution" = [32, 32]
+"integrator.volume_photons" = 2000
+"integrator.stepsize" = 0.005
+[axes]
+"sigma.t" = [20, 60]
+"integrator.nused" = [20, 80]
+[reference]
+spp = 4
+[[compare]]
+kind = "layers"
+[[compare]]
+kind = "reference"
+[[sheets]]
+rows = "sigma.t"
+cols = "integrator.nused"
+layer = "multiple"
+[[plots]]
+x = "integrator.nused"
+y = ["disco_energy", "rmse"]
+series = "sigma.t"
+"#,
+            scene.display()
+        ),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    run_ok(
+        sweep()
+            .arg("run")
+            .arg(&exp)
+            .arg("--output")
+            .arg(&out)
+            .arg("--quiet"),
+    );
+    out
+}
+
+/// What the page reported: problems found by the browser itself.
+#[derive(Debug, serde::Deserialize)]
+struct PageCheck {
+    images: usize,
+    broken_images: Vec<String>,
+    links: Vec<String>,
+    missing_anchors: Vec<String>,
+    width: f64,
+    height: f64,
+}
+
+const CHECK_PAGE: &str = r#"JSON.stringify((() => {
+  const images = Array.from(document.images);
+  const broken = images
+    .filter(i => !(i.complete && i.naturalWidth > 0 && i.naturalHeight > 0))
+    .map(i => (i.alt || '') + ' ' + i.src.slice(0, 60));
+  const anchors = Array.from(document.querySelectorAll('a[href]'));
+  const missing = anchors
+    .map(a => a.getAttribute('href'))
+    .filter(h => h.startsWith('#') && h.length > 1 && !document.getElementById(h.slice(1)));
+  return {
+    images: images.length,
+    broken_images: broken,
+    links: anchors.map(a => a.href),
+    missing_anchors: missing,
+    width: document.documentElement.scrollWidth,
+    height: document.documentElement.scrollHeight,
+  };
+})())"#;
+
+#[test]
+fn html_report_renders_in_chromium() {
+    let Some(chrome) = chromium() else {
+        assert!(
+            !real_data_required(),
+            "CI=true but Chromium is missing: install Debian's `chromium` (.ci/run does) or set $CHROMIUM"
+        );
+        eprintln!("skipping: no Chromium (install `chromium` or set $CHROMIUM)");
+        return;
+    };
+    // Kept under target/tmp so that the screenshot can be looked at after the test.
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("browser-report");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = small_report(&dir);
+    let report = out.join("report.html");
+    assert!(report.is_file());
+
+    let browser = Browser::new(
+        LaunchOptions::default_builder()
+            .path(Some(chrome))
+            // Containers run tests as root, where Chromium's sandbox cannot start.
+            .sandbox(false)
+            .window_size(Some((1280, 900)))
+            .build()
+            .unwrap(),
+    )
+    .expect("Chromium starts");
+    let tab = browser.new_tab().unwrap();
+    let console: Arc<Mutex<Vec<String>>> = Arc::default();
+    let sink = console.clone();
+    tab.add_event_listener(Arc::new(move |event: &Event| {
+        let line = match event {
+            Event::LogEntryAdded(e)
+                if matches!(e.params.entry.level, Log::LogEntryLevel::Error) =>
+            {
+                Some(format!(
+                    "log: {} {:?}",
+                    e.params.entry.text, e.params.entry.url
+                ))
+            }
+            Event::RuntimeConsoleAPICalled(e)
+                if matches!(
+                    e.params.Type,
+                    Runtime::ConsoleAPICalledEventTypeOption::Error
+                        | Runtime::ConsoleAPICalledEventTypeOption::Assert
+                ) =>
+            {
+                Some(format!("console.{:?}", e.params.Type))
+            }
+            Event::RuntimeExceptionThrown(e) => {
+                Some(format!("exception: {}", e.params.exception_details.text))
+            }
+            _ => None,
+        };
+        if let Some(line) = line {
+            sink.lock().unwrap().push(line);
+        }
+    }))
+    .unwrap();
+    tab.enable_log().unwrap();
+    tab.enable_runtime().unwrap();
+    let url = format!("file://{}", report.canonicalize().unwrap().display());
+    tab.navigate_to(&url)
+        .unwrap()
+        .wait_until_navigated()
+        .unwrap();
+
+    let result = tab.evaluate(CHECK_PAGE, false).unwrap();
+    let text = result
+        .value
+        .and_then(|v| v.as_str().map(str::to_string))
+        .expect("the check returns a JSON string");
+    let page: PageCheck = serde_json::from_str(&text).unwrap();
+
+    // Every figure of report.md is on the page and decoded by the browser.
+    let markdown = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let figures = markdown.matches("![").count();
+    assert!(
+        page.images == figures && figures >= 4,
+        "{} images on the page, {figures} figures in report.md",
+        page.images
+    );
+    assert!(
+        page.broken_images.is_empty(),
+        "images the browser could not decode: {:?}",
+        page.broken_images
+    );
+    assert!(
+        page.missing_anchors.is_empty(),
+        "{:?}",
+        page.missing_anchors
+    );
+    assert!(!page.links.is_empty(), "the report links its tables");
+    for link in &page.links {
+        let path = link
+            .strip_prefix("file://")
+            .unwrap_or_else(|| panic!("report links outside itself: {link}"));
+        let path = path.split('#').next().unwrap();
+        assert!(Path::new(path).exists(), "broken link {link}");
+    }
+
+    // A full-page screenshot for people.
+    let shot = tab
+        .call_method(Page::CaptureScreenshot {
+            format: Some(Page::CaptureScreenshotFormatOption::Png),
+            quality: None,
+            clip: Some(Page::Viewport {
+                x: 0.0,
+                y: 0.0,
+                width: page.width,
+                height: page.height,
+                scale: 1.0,
+            }),
+            from_surface: Some(true),
+            capture_beyond_viewport: Some(true),
+            optimize_for_speed: None,
+        })
+        .unwrap();
+    use base64::Engine as _;
+    let png = base64::engine::general_purpose::STANDARD
+        .decode(shot.data)
+        .unwrap();
+    let screenshot = out.join("report-screenshot.png");
+    std::fs::write(&screenshot, &png).unwrap();
+    let decoded = image::load_from_memory(&png).unwrap().to_rgb8();
+    assert!(decoded.height() as f64 >= page.height.min(900.0) - 1.0);
+    // Not a blank page: the dark figures and the light page both appear.
+    let luma: Vec<u8> = decoded.pixels().map(|p| p.0[1]).collect();
+    let dark = luma.iter().filter(|&&v| v < 40).count();
+    let light = luma.iter().filter(|&&v| v > 200).count();
+    assert!(dark > 1000 && light > 1000, "dark {dark}, light {light}");
+
+    let console = console.lock().unwrap();
+    assert!(console.is_empty(), "console errors: {console:?}");
+    eprintln!("screenshot: {}", screenshot.display());
+}
