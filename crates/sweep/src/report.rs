@@ -814,6 +814,8 @@ fn plots(
             };
             // series value → x → values (averaged over the remaining axes).
             let mut lines: BTreeMap<String, BTreeMap<i64, (f64, Vec<f64>)>> = BTreeMap::new();
+            // Series in the order of the axis values (plan order), not alphabetically.
+            let mut order: Vec<String> = Vec::new();
             for c in &selected {
                 let (Some(r), Some(x)) = (
                     &c.record,
@@ -834,6 +836,9 @@ fn plots(
                     })
                     .unwrap_or_default();
                 let key = (x * 1e6).round() as i64;
+                if !order.contains(&name) {
+                    order.push(name.clone());
+                }
                 lines
                     .entry(name)
                     .or_default()
@@ -845,8 +850,9 @@ fn plots(
             if lines.is_empty() {
                 continue;
             }
-            let series: Vec<Series> = lines
+            let series: Vec<Series> = order
                 .into_iter()
+                .filter_map(|name| lines.remove(&name).map(|pts| (name, pts)))
                 .map(|(name, pts)| Series {
                     name,
                     points: pts
