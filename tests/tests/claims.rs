@@ -60,15 +60,15 @@ fn c1_disco_balls_fade_as_nused_grows() {
         "c1",
         "phantom-engine.toml",
         &format!("{SMALL}\n\"sigma.t\" = 80"),
-        "\"integrator.nused\" = [25, 150]",
+        "\"integrator.nused\" = [25, 50, 150]",
     );
-    let (few, many) = (
-        value(&rows, "integrator.nused", "25", "disco_energy [1]"),
-        value(&rows, "integrator.nused", "150", "disco_energy [1]"),
-    );
+    let score: Vec<f64> = ["25", "50", "150"]
+        .iter()
+        .map(|n| value(&rows, "integrator.nused", n, "disco_energy [1]"))
+        .collect();
     assert!(
-        few > many,
-        "disco score at nused 25 ({few}) should exceed nused 150 ({many})"
+        score[0] > score[1] && score[1] > score[2],
+        "disco score should fall from nused 25 over 50 to 150: {score:?}"
     );
 }
 
