@@ -121,3 +121,89 @@ fn eight_and_sixteen_bit_heads_are_spatially_aligned() {
         "same placement (spacing 1, 1, 1.5)"
     );
 }
+
+#[test]
+fn header_formats_read_the_real_files_voxel_for_voxel() {
+    // Users hold the same data behind NRRD and MetaImage headers: detached headers that
+    // point at the real RAW files, and attached / compressed copies written from them.
+    if !data_available() {
+        return;
+    }
+    use volphot::volume::{metaimage, nrrd, registry::find};
+    let search = common::search_path();
+    let tmp = tempfile::tempdir().unwrap();
+    for (name, nrrd_type, met_type) in [
+        ("engine", "uint8", "MET_UCHAR"),
+        ("skeleton", "int16", "MET_SHORT"),
+    ] {
+        let info = find(name).unwrap();
+        let raw_path = search.locate(info.file).unwrap();
+        let bytes = std::fs::read(&raw_path).unwrap();
+        let [nx, ny, nz] = info.dims;
+        let expected: Vec<f32> = match info.voxel {
+            volphot::volume::VoxelType::U8 => bytes.iter().map(|&b| b as f32).collect(),
+            _ => bytes
+                .chunks_exact(2)
+                .map(|c| i16::from_le_bytes([c[0], c[1]]) as f32)
+                .collect(),
+        };
+        let [sx, sy, sz] = info.spacing;
+
+        let nhdr = tmp.path().join(format!("{name}.nhdr"));
+        std::fs::write(
+            &nhdr,
+            format!(
+                "NRRD0004\ntype: {nrrd_type}\ndimension: 3\nsizes: {nx} {ny} {nz}\n\
+                 spacings: {sx} {sy} {sz}\nendian: little\nencoding: raw\n\
+                 data file: {}\n",
+                raw_path.display()
+            ),
+        )
+        .unwrap();
+        let mhd = tmp.path().join(format!("{name}.mhd"));
+        std::fs::write(
+            &mhd,
+            format!(
+                "ObjectType = Image\nNDims = 3\nDimSize = {nx} {ny} {nz}\n\
+                 ElementSpacing = {sx} {sy} {sz}\nElementByteOrderMSB = False\n\
+                 ElementType = {met_type}\nElementDataFile = {}\n",
+                raw_path.display()
+            ),
+        )
+        .unwrap();
+        for loaded in [nrrd::read(&nhdr).unwrap(), metaimage::read(&mhd).unwrap()] {
+            assert_eq!(loaded.dims, info.dims, "{name} {}", loaded.format);
+            assert_eq!(loaded.spacing, Some(info.spacing), "{name}");
+            assert_eq!(loaded.data_path, raw_path, "{name}");
+            assert!(loaded.values == expected, "{name} via {}", loaded.format);
+        }
+
+        // Attached gzip NRRD and compressed / attached MetaImage copies round-trip exactly.
+        let gz = tmp.path().join(format!("{name}.nrrd"));
+        nrrd::write(
+            &gz,
+            info.dims,
+            &expected,
+            info.voxel,
+            info.spacing,
+            true,
+            false,
+        )
+        .unwrap();
+        let mha = tmp.path().join(format!("{name}.mha"));
+        metaimage::write(&mha, info.dims, &expected, info.voxel, info.spacing, false).unwrap();
+        let zraw = tmp.path().join(format!("{name}-z.mhd"));
+        metaimage::write(&zraw, info.dims, &expected, info.voxel, info.spacing, true).unwrap();
+        for loaded in [
+            nrrd::read(&gz).unwrap(),
+            metaimage::read(&mha).unwrap(),
+            metaimage::read(&zraw).unwrap(),
+        ] {
+            assert!(
+                loaded.values == expected,
+                "{name} copy via {}",
+                loaded.format
+            );
+        }
+    }
+}
