@@ -89,6 +89,11 @@ where
         .series
         .iter()
         .flat_map(|s| s.points.iter().map(|p| p.1));
+    // On a log x axis the automatic ticks are powers of ten, which hides the swept values
+    // (nused 25, 50, 150, 300); tick at the distinct x values of the data instead.
+    let mut ticks: Vec<f64> = xs.clone().filter(|x| x.is_finite() && *x > 0.0).collect();
+    ticks.sort_by(f64::total_cmp);
+    ticks.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * b.abs());
     let (x0, x1) = range(xs, plot.log_x);
     let (y0, y1) = range(ys, plot.log_y);
     let mut builder = ChartBuilder::on(root);
@@ -103,6 +108,7 @@ where
             chart
                 .configure_mesh()
                 .x_desc(plot.x_label.as_str())
+                .x_label_formatter(&|v| tick_label(*v))
                 .y_desc(plot.y_label.as_str())
                 .label_style(("sans-serif", 14))
                 .axis_desc_style(("sans-serif", 16))
@@ -153,7 +159,7 @@ where
         (false, false) => finish!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err)?),
         (true, false) => finish!(
             builder
-                .build_cartesian_2d((x0..x1).log_scale(), y0..y1)
+                .build_cartesian_2d((x0..x1).log_scale().with_key_points(ticks), y0..y1)
                 .map_err(err)?
         ),
         (false, true) => finish!(
@@ -163,12 +169,25 @@ where
         ),
         (true, true) => finish!(
             builder
-                .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+                .build_cartesian_2d(
+                    (x0..x1).log_scale().with_key_points(ticks),
+                    (y0..y1).log_scale()
+                )
                 .map_err(err)?
         ),
     }
     root.present().map_err(err)?;
     Ok(())
+}
+
+/// A tick label: three significant digits without trailing zeros (`25`, `0.2`, `0.000125`).
+fn tick_label(v: f64) -> String {
+    let s = crate::figures::sig3(v as f32);
+    if s.contains('.') && !s.contains('e') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
 }
 
 /// Writes `stem.png` and `stem.svg` (900×560).
@@ -193,6 +212,17 @@ pub fn write_plot(stem: &Path, plot: &Plot) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(tick_label(25.0), "25");
+        assert_eq!(tick_label(150.0), "150");
+        assert_eq!(tick_label(0.2), "0.2");
+        assert_eq!(tick_label(0.0005), "0.0005");
+        assert_eq!(tick_label(40000.0), "40000");
+        assert_eq!(tick_label(0.000125), "0.000125");
+        assert_eq!(tick_label(1.0e-6), "1.00e-6");
+    }
 
     #[test]
     fn writes_png_and_svg_with_log_axis() {
