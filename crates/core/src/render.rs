@@ -28,11 +28,11 @@ pub struct Timings {
     pub total: f64,
 }
 
-/// Everything needed to understand and rerun a render, written as a JSON sidecar.
+/// What a render was made from: the effective parameters and where the volume, transfer
+/// function and σ mapping came from. Shared by every record of a render (render sidecars,
+/// sweep cells), flattened into their JSON.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct RenderRecord {
-    /// Program version.
-    pub version: String,
+pub struct Provenance {
     /// Effective scene parameters (after overrides).
     pub scene: SceneParams,
     /// Where the volume came from (file + sha256, or phantom + parameters).
@@ -43,6 +43,29 @@ pub struct RenderRecord {
     pub sigma_mapping: String,
     /// What the σ mapping gives on this volume.
     pub sigma: SigmaReport,
+}
+
+impl Provenance {
+    /// The provenance of a render of `scene`.
+    pub fn of(scene: &Scene) -> Self {
+        Provenance {
+            scene: scene.params().clone(),
+            volume: scene.volume_source().clone(),
+            transfer: scene.medium().transfer_description().to_string(),
+            sigma_mapping: scene.medium().mapping().describe(),
+            sigma: *scene.medium().report(),
+        }
+    }
+}
+
+/// Everything needed to understand and rerun a render, written as a JSON sidecar.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RenderRecord {
+    /// Program version.
+    pub version: String,
+    /// Parameters and sources.
+    #[serde(flatten)]
+    pub provenance: Provenance,
     /// Photon statistics (photon method with multiple scattering).
     pub photons: Option<PhotonStats>,
     /// Marching counters (photon method).
@@ -135,11 +158,7 @@ pub fn record(
 ) -> RenderRecord {
     RenderRecord {
         version: env!("CARGO_PKG_VERSION").to_string(),
-        scene: scene.params().clone(),
-        volume: scene.volume_source().clone(),
-        transfer: scene.medium().transfer_description().to_string(),
-        sigma_mapping: scene.medium().mapping().describe(),
-        sigma: *scene.medium().report(),
+        provenance: Provenance::of(scene),
         photons,
         march,
         reference_spp,

@@ -11,9 +11,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use volphot::photon::PhotonStats;
+use volphot::render::Provenance;
 use volphot::scene::SceneParams;
-use volphot::sigma::SigmaReport;
-use volphot::volume::VolumeSource;
 
 use crate::experiment::CellSpec;
 
@@ -130,16 +129,10 @@ pub struct CellRecord {
     pub label: String,
     /// Axis values (JSON).
     pub axes: Vec<(String, serde_json::Value)>,
-    /// Effective scene parameters.
-    pub scene: SceneParams,
-    /// Volume provenance.
-    pub volume: VolumeSource,
-    /// Transfer function, described.
-    pub transfer: String,
-    /// σ mapping, described.
-    pub sigma_mapping: String,
-    /// σ mapping outcome.
-    pub sigma: SigmaReport,
+    /// Effective parameters and sources (flattened: `scene`, `volume`, `transfer`,
+    /// `sigma_mapping`, `sigma` in the JSON).
+    #[serde(flatten)]
+    pub provenance: Provenance,
     /// Photon statistics (when the cell used a photon map).
     pub photons: Option<PhotonStats>,
     /// Timings.
@@ -179,7 +172,7 @@ fn ratio(a: f64, b: f64) -> Option<f64> {
 }
 
 fn extent_pct(r: &CellRecord, d: f64) -> f64 {
-    100.0 * d / r.sigma.largest_extent as f64
+    100.0 * d / r.provenance.sigma.largest_extent as f64
 }
 
 /// The metric columns, in CSV order.
@@ -236,22 +229,22 @@ pub const METRIC_COLUMNS: &[MetricColumn] = &[
     MetricColumn {
         key: "nominal_mfp",
         header: "nominal_mfp [% extent]",
-        value: |r, _| Some(r.sigma.mean_free_path_percent as f64),
+        value: |r, _| Some(r.provenance.sigma.mean_free_path_percent as f64),
     },
     MetricColumn {
         key: "median_mfp",
         header: "median_mfp [% extent]",
-        value: |r, _| Some(r.sigma.median_free_path_percent as f64),
+        value: |r, _| Some(r.provenance.sigma.median_free_path_percent as f64),
     },
     MetricColumn {
         key: "sigma_t_dmin",
         header: "sigma_t_dmin [1/world unit]",
-        value: |r, _| Some(r.sigma.sigma_t_at_dmin as f64),
+        value: |r, _| Some(r.provenance.sigma.sigma_t_at_dmin as f64),
     },
     MetricColumn {
         key: "d_min",
         header: "d_min [1]",
-        value: |r, _| Some(r.sigma.d_min as f64),
+        value: |r, _| Some(r.provenance.sigma.d_min as f64),
     },
     MetricColumn {
         key: "mean_single",
@@ -478,6 +471,15 @@ pub fn read_record(dir: &Path) -> Result<CellRecord> {
     let text =
         std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
     serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))
+}
+
+/// Writes a cell's record (`cell.json`) atomically.
+pub fn write_record(dir: &Path, record: &CellRecord) -> Result<()> {
+    volphot::fsutil::write_atomic(
+        &dir.join("cell.json"),
+        serde_json::to_string_pretty(record)?.as_bytes(),
+    )?;
+    Ok(())
 }
 
 /// Reads the reference metrics of a cell for one reference, if computed.

@@ -487,20 +487,25 @@ impl Experiment {
                 v
             })
             .collect::<Vec<_>>();
-        for (ei, rule) in exclude.iter().enumerate() {
-            for (k, _) in rule {
-                if !seen.contains(k) {
-                    return Err(located(
-                        path,
-                        &source,
-                        "exclude",
-                        format!(
-                            "exclude[{ei}]: `{k}` is not an axis (axes: {})",
-                            seen.iter().cloned().collect::<Vec<_>>().join(", ")
-                        ),
-                    ));
-                }
+        // Every key an exclude rule, compare, plot or sheet refers to must be an axis.
+        let axis_names = dimensions
+            .iter()
+            .flat_map(|d| d.keys.iter().map(String::as_str))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let require_axes = |table: &str, index: usize, keys: Vec<&String>| -> Result<()> {
+            match keys.into_iter().find(|k| !seen.contains(*k)) {
+                Some(k) => Err(located(
+                    path,
+                    &source,
+                    table,
+                    format!("{table}[{index}]: `{k}` is not an axis (axes: {axis_names})"),
+                )),
+                None => Ok(()),
             }
+        };
+        for (ei, rule) in exclude.iter().enumerate() {
+            require_axes("exclude", ei, rule.iter().map(|(k, _)| k).collect())?;
         }
         for q in file.quality.keys() {
             if q != "quick" && q != "paper" {
@@ -545,14 +550,7 @@ impl Experiment {
                             format!("compare[{ci}]: kind = \"axis\" needs `axis`"),
                         )
                     })?;
-                    if !seen.contains(axis) {
-                        return Err(located(
-                            path,
-                            &source,
-                            "compare",
-                            format!("compare[{ci}]: `{axis}` is not an axis"),
-                        ));
-                    }
+                    require_axes("compare", ci, vec![axis])?;
                     if c.b.is_none() {
                         return Err(located(
                             path,
@@ -585,19 +583,14 @@ impl Experiment {
             }
         }
         for (pi, p) in file.plots.iter().enumerate() {
-            for k in std::iter::once(&p.x)
-                .chain(p.series.iter())
-                .chain(p.filter.keys())
-            {
-                if !seen.contains(k) {
-                    return Err(located(
-                        path,
-                        &source,
-                        "plots",
-                        format!("plots[{pi}]: `{k}` is not an axis"),
-                    ));
-                }
-            }
+            require_axes(
+                "plots",
+                pi,
+                std::iter::once(&p.x)
+                    .chain(&p.series)
+                    .chain(p.filter.keys())
+                    .collect(),
+            )?;
             for y in &p.y {
                 if !crate::cells::METRIC_COLUMNS.iter().any(|m| m.key == y) {
                     return Err(located(
@@ -617,19 +610,14 @@ impl Experiment {
             }
         }
         for (si, s) in file.sheets.iter().enumerate() {
-            for k in std::iter::once(&s.rows)
-                .chain(s.cols.iter())
-                .chain(s.filter.keys())
-            {
-                if !seen.contains(k) {
-                    return Err(located(
-                        path,
-                        &source,
-                        "sheets",
-                        format!("sheets[{si}]: `{k}` is not an axis"),
-                    ));
-                }
-            }
+            require_axes(
+                "sheets",
+                si,
+                std::iter::once(&s.rows)
+                    .chain(&s.cols)
+                    .chain(s.filter.keys())
+                    .collect(),
+            )?;
             if !["total", "single", "multiple", "diff"].contains(&s.layer.as_str()) {
                 return Err(located(
                     path,

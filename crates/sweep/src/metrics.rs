@@ -29,12 +29,9 @@ pub fn displayed(film: &Film, multiple: bool, emission: bool) -> Vec<Vec3> {
     film.combine(&layers)
 }
 
-/// The disco-ball score of a film's multiple layer; the object mask is every pixel that
-/// received any light.
-pub fn disco(film: &Film) -> DiscoScore {
-    let total = film.total();
-    let mask: Vec<bool> = total.iter().map(|v| luminance(*v) > 0.0).collect();
-    let y = Gray {
+/// Luminance of a film's multiple-scattering layer, where disco balls live.
+fn multiple_luminance(film: &Film) -> Gray {
+    Gray {
         width: film.width(),
         height: film.height(),
         data: film
@@ -42,14 +39,27 @@ pub fn disco(film: &Film) -> DiscoScore {
             .iter()
             .map(|v| luminance(*v))
             .collect(),
-    };
-    disco_score(&y, &mask)
+    }
+}
+
+/// The object: every pixel that received any light.
+fn lit_mask(film: &Film) -> Vec<bool> {
+    film.total().iter().map(|v| luminance(*v) > 0.0).collect()
+}
+
+/// The disco-ball score of a film's multiple layer over the object ([`lit_mask`]).
+pub fn disco(film: &Film) -> DiscoScore {
+    disco_score(&multiple_luminance(film), &lit_mask(film))
 }
 
 /// Tone-mapped luminance in [0, 1] (sRGB encoding of each channel, then Rec. 709 weights).
 fn display_luminance(pixels: &[Vec3], exposure: f32) -> Vec<f32> {
-    to_srgb8(pixels, exposure)
-        .chunks_exact(3)
+    srgb8_luminance(&to_srgb8(pixels, exposure))
+}
+
+/// Rec. 709 luminance in [0, 1] of 8-bit sRGB triples.
+fn srgb8_luminance(rgb: &[u8]) -> Vec<f32> {
+    rgb.chunks_exact(3)
         .map(|c| (0.2126 * c[0] as f32 + 0.7152 * c[1] as f32 + 0.0722 * c[2] as f32) / 255.0)
         .collect()
 }
@@ -128,7 +138,8 @@ fn correlation(a: &[f32], b: &[f32], mask: &[bool]) -> f64 {
 pub fn image_stats(film: &Film, shown: &[Vec3], exposure: f32) -> ImageStats {
     let (w, h) = (film.width(), film.height());
     let single = display_luminance(film.layer(Layer::Single), exposure);
-    let total = display_luminance(shown, exposure);
+    let shown8 = to_srgb8(shown, exposure);
+    let total = srgb8_luminance(&shown8);
     let mask: Vec<bool> = shown.iter().map(|v| luminance(*v) > 0.0).collect();
     let object = mask.iter().filter(|m| **m).count().max(1) as f64;
     let lit = single
@@ -141,7 +152,6 @@ pub fn image_stats(film: &Film, shown: &[Vec3], exposure: f32) -> ImageStats {
         .depth()
         .map(<[f32]>::to_vec)
         .unwrap_or_else(|| vec![f32::INFINITY; w * h]);
-    let shown8 = to_srgb8(shown, exposure);
     let clipped = shown8
         .chunks_exact(3)
         .zip(&mask)
@@ -178,17 +188,11 @@ pub fn image_stats(film: &Film, shown: &[Vec3], exposure: f32) -> ImageStats {
 
 /// The disco score of a film's multiple layer relative to a reference film's.
 pub fn disco_excess(film: &Film, reference: &Film) -> DiscoScore {
-    let gray = |f: &Film| Gray {
-        width: f.width(),
-        height: f.height(),
-        data: f
-            .layer(Layer::Multiple)
-            .iter()
-            .map(|v| luminance(*v))
-            .collect(),
-    };
-    let mask: Vec<bool> = film.total().iter().map(|v| luminance(*v) > 0.0).collect();
-    crate::disco::relative_disco_score(&gray(film), &gray(reference), &mask)
+    crate::disco::relative_disco_score(
+        &multiple_luminance(film),
+        &multiple_luminance(reference),
+        &lit_mask(film),
+    )
 }
 
 /// Errors of `image` against `reference` (linear RGB, same size).

@@ -11,7 +11,7 @@ use volphot::film::{Film, Layer};
 
 use crate::cells::{
     CellRecord, IMAGE_STATS_VERSION, METRIC_COLUMNS, OutputDir, ReferenceMetrics, is_done,
-    read_record, read_reference_metrics,
+    read_record, read_reference_metrics, write_record,
 };
 use crate::experiment::{Experiment, PlotSpec, SheetSpec};
 use crate::figures::{
@@ -180,10 +180,12 @@ pub fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
     let mut cells = Vec::new();
     for p in &plan.cells {
         let dir = out.cell(&p.hash);
+        // The film is read only if something has to be recomputed from it, and then once.
+        let mut film = None;
         let record = if is_done(&dir) {
             let mut record = read_record(&dir)?;
             if record.image.version != IMAGE_STATS_VERSION {
-                refresh_image_stats(&dir, &mut record)?;
+                refresh_image_stats(&dir, &mut record, cell_film(&dir, &mut film)?)?;
             }
             Some(record)
         } else {
@@ -193,8 +195,8 @@ pub fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
         if let (Some(r), Some(key)) = (&record, &p.reference) {
             reference = read_reference_metrics(&dir, key);
             if reference.is_none() && read_reference_record(&out.reference(key)).is_ok() {
-                let film = Film::read_exr(&dir.join("film.exr"))?;
-                compute_reference_metrics(out, &p.hash, key, &r.scene, &film)?;
+                let film = cell_film(&dir, &mut film)?;
+                compute_reference_metrics(out, &p.hash, key, &r.provenance.scene, film)?;
                 reference = read_reference_metrics(&dir, key);
             }
         }
@@ -213,18 +215,21 @@ pub fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
     Ok((plan, cells))
 }
 
-/// Recomputes a record's image statistics from its `film.exr` (they are cheap next to the
+/// A cell's `film.exr`, read on first use.
+fn cell_film<'a>(dir: &Path, film: &'a mut Option<Film>) -> Result<&'a Film> {
+    if film.is_none() {
+        *film = Some(Film::read_exr(&dir.join("film.exr"))?);
+    }
+    Ok(film.as_ref().expect("just read"))
+}
+
+/// Recomputes a record's image statistics from its film (they are cheap next to the
 /// render) and stores the updated record, so older outputs gain newer columns.
-fn refresh_image_stats(dir: &Path, record: &mut CellRecord) -> Result<()> {
-    let film = Film::read_exr(&dir.join("film.exr"))?;
-    let p = &record.scene;
-    let shown = metrics::displayed(&film, p.integrator.multiple, p.integrator.emission);
-    record.image = metrics::image_stats(&film, &shown, p.film.exposure);
-    volphot::fsutil::write_atomic(
-        &dir.join("cell.json"),
-        serde_json::to_string_pretty(record)?.as_bytes(),
-    )?;
-    Ok(())
+fn refresh_image_stats(dir: &Path, record: &mut CellRecord, film: &Film) -> Result<()> {
+    let p = &record.provenance.scene;
+    let shown = metrics::displayed(film, p.integrator.multiple, p.integrator.emission);
+    record.image = metrics::image_stats(film, &shown, p.film.exposure);
+    write_record(dir, record)
 }
 
 /// The `cells.csv` table.
@@ -275,10 +280,10 @@ pub fn cells_table(plan: &PlanRecord, cells: &[Collected]) -> Table {
             let r = c.record.as_ref();
             row.push(Field::Text(c.planned.method.clone()));
             row.push(r.map_or(Field::Empty, |r| {
-                Field::Number(r.scene.integrator.seed as f64)
+                Field::Number(r.provenance.scene.integrator.seed as f64)
             }));
             row.push(text(r.map(|r| {
-                match &r.volume {
+                match &r.provenance.volume {
                     volphot::volume::VolumeSource::File { dataset, path, .. } => dataset
                         .clone()
                         .unwrap_or_else(|| path.display().to_string()),
@@ -287,9 +292,9 @@ pub fn cells_table(plan: &PlanRecord, cells: &[Collected]) -> Table {
                     }
                 }
             })));
-            row.push(text(r.map(|r| r.volume.identity())));
-            row.push(text(r.map(|r| r.transfer.clone())));
-            row.push(text(r.map(|r| r.sigma_mapping.clone())));
+            row.push(text(r.map(|r| r.provenance.volume.identity())));
+            row.push(text(r.map(|r| r.provenance.transfer.clone())));
+            row.push(text(r.map(|r| r.provenance.sigma_mapping.clone())));
             row.push(text(r.map(|r| r.version.clone())));
             row.push(text(r.map(|r| r.host.clone())));
             row.push(text(c.planned.reference.clone()));
@@ -548,7 +553,7 @@ fn layer_differences(
     for c in cells.iter().filter(|c| {
         c.record
             .as_ref()
-            .is_some_and(|r| r.scene.integrator.multiple)
+            .is_some_and(|r| r.provenance.scene.integrator.multiple)
     }) {
         let film = Film::read_exr(&out.cell(&c.planned.hash).join("film.exr"))?;
         films.push((c, film));
@@ -560,7 +565,7 @@ fn layer_differences(
         .0
         .record
         .as_ref()
-        .map_or(0.0, |r| r.scene.film.exposure);
+        .map_or(0.0, |r| r.provenance.scene.film.exposure);
     let gain = spec.gain.unwrap_or_else(|| {
         let all: Vec<f32> = films
             .iter()
@@ -678,16 +683,22 @@ fn axis_comparisons(
             let (w, h) = (fa.width(), fa.height());
             let ia = crate::metrics::displayed(
                 &fa,
-                ra.scene.integrator.multiple,
-                ra.scene.integrator.emission,
+                ra.provenance.scene.integrator.multiple,
+                ra.provenance.scene.integrator.emission,
             );
             let ib = crate::metrics::displayed(
                 &fb,
-                rb.scene.integrator.multiple,
-                rb.scene.integrator.emission,
+                rb.provenance.scene.integrator.multiple,
+                rb.provenance.scene.integrator.emission,
             );
-            let m =
-                crate::metrics::compare(&ia, &ib, w, h, ra.scene.film.exposure, &b.planned.hash);
+            let m = crate::metrics::compare(
+                &ia,
+                &ib,
+                w,
+                h,
+                ra.provenance.scene.film.exposure,
+                &b.planned.hash,
+            );
             let diffs: Vec<f32> = ia
                 .iter()
                 .zip(&ib)
@@ -696,9 +707,9 @@ fn axis_comparisons(
             let scale = diffs.iter().cloned().fold(0.0f32, f32::max).max(1e-9);
             let gain = spec
                 .gain
-                .unwrap_or_else(|| auto_gain(&diffs, ra.scene.film.exposure));
+                .unwrap_or_else(|| auto_gain(&diffs, ra.provenance.scene.film.exposure));
             let signed = signed_difference(&ia, &ib, w, h, scale);
-            let amp = amplified_difference(&ia, &ib, w, h, gain, ra.scene.film.exposure);
+            let amp = amplified_difference(&ia, &ib, w, h, gain, ra.provenance.scene.film.exposure);
             let tiles = [
                 Tile {
                     image: Rgb8::read_png(&out.cell(&a.planned.hash).join("total.png")).ok(),
@@ -991,7 +1002,7 @@ fn markdown(
     let mut volumes: Vec<String> = cells
         .iter()
         .filter_map(|c| c.record.as_ref())
-        .map(|r| r.volume.describe())
+        .map(|r| r.provenance.volume.describe())
         .collect();
     volumes.sort();
     volumes.dedup();

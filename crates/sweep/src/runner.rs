@@ -26,7 +26,7 @@ use volphot::film::{Film, Layer, write_png};
 use volphot::integrator::{MsVariant, render_march};
 use volphot::medium::Medium;
 use volphot::photon_map::PhotonMap;
-use volphot::render::{build_photon_map, peak_memory_bytes};
+use volphot::render::{Provenance, build_photon_map, peak_memory_bytes};
 use volphot::scene::{Scene, SceneParams, build_medium, load_volume};
 use volphot::settings::Method;
 use volphot::volume::Volume;
@@ -34,7 +34,7 @@ use volphot::volume::registry::SearchPath;
 
 use crate::cells::{
     CellRecord, CellTimings, OutputDir, StagedDir, VERSION, cell_hash, clean_stale, is_done,
-    volume_identity,
+    volume_identity, write_record,
 };
 use crate::cli::Quality;
 use crate::experiment::{CellSpec, Experiment, ReferenceSpec, set_key};
@@ -360,6 +360,25 @@ pub fn read_plan(out: &OutputDir) -> Result<PlanRecord> {
     serde_json::from_str(&text).with_context(|| format!("parsing {}", out.plan().display()))
 }
 
+/// The cached value under `key`, or `make`'s, stored for the next caller. The lock is not
+/// held while `make` runs (loading a volume takes seconds); two cells racing for the same
+/// key both build it and the second insert wins, which is harmless.
+fn cached<T>(
+    cache: &Mutex<HashMap<String, Arc<T>>>,
+    key: &str,
+    make: impl FnOnce() -> Result<T>,
+) -> Result<Arc<T>> {
+    if let Some(v) = cache.lock().expect("cache lock").get(key) {
+        return Ok(Arc::clone(v));
+    }
+    let v = Arc::new(make()?);
+    cache
+        .lock()
+        .expect("cache lock")
+        .insert(key.to_string(), Arc::clone(&v));
+    Ok(v)
+}
+
 /// Loaded volumes and media, shared by every cell of a run.
 #[derive(Default)]
 struct Caches {
@@ -374,50 +393,18 @@ impl Caches {
             base.display(),
             serde_json::to_string(&params.volume)?
         );
-        let volume = {
-            let cached = self
-                .volumes
-                .lock()
-                .expect("cache lock")
-                .get(&volume_key)
-                .cloned();
-            match cached {
-                Some(v) => v,
-                None => {
-                    let v = Arc::new(load_volume(&params.volume, base, search)?);
-                    self.volumes
-                        .lock()
-                        .expect("cache lock")
-                        .insert(volume_key.clone(), Arc::clone(&v));
-                    v
-                }
-            }
-        };
+        let volume = cached(&self.volumes, &volume_key, || {
+            load_volume(&params.volume, base, search).map_err(Into::into)
+        })?;
         let medium_key = format!(
             "{volume_key}|{}|{}|{}",
             serde_json::to_string(&params.transfer)?,
             serde_json::to_string(&params.sigma)?,
             serde_json::to_string(&params.phase)?
         );
-        let medium = {
-            let cached = self
-                .media
-                .lock()
-                .expect("cache lock")
-                .get(&medium_key)
-                .cloned();
-            match cached {
-                Some(m) => m,
-                None => {
-                    let m = Arc::new(build_medium(params, &volume, base)?);
-                    self.media
-                        .lock()
-                        .expect("cache lock")
-                        .insert(medium_key, Arc::clone(&m));
-                    m
-                }
-            }
-        };
+        let medium = cached(&self.media, &medium_key, || {
+            build_medium(params, &volume, base).map_err(Into::into)
+        })?;
         Ok(Scene::assemble(params, medium, volume.source().clone())?)
     }
 }
@@ -866,17 +853,12 @@ fn write_cell(
         film.layer(Layer::Multiple),
         exposure,
     )?;
-    let medium = scene.medium();
     let record = CellRecord {
         index: job.spec.index,
         hash: job.hash.clone(),
         label: job.spec.label(),
         axes: axes_json(&job.spec),
-        scene: p.clone(),
-        volume: scene.volume_source().clone(),
-        transfer: medium.transfer_description().to_string(),
-        sigma_mapping: medium.mapping().describe(),
-        sigma: *medium.report(),
+        provenance: Provenance::of(scene),
         photons,
         timings,
         peak_memory_bytes: peak_memory_bytes(),
@@ -889,10 +871,7 @@ fn write_cell(
         threads: rayon::current_num_threads(),
         host: crate::cells::hostname(),
     };
-    volphot::fsutil::write_atomic(
-        &dir.join("cell.json"),
-        serde_json::to_string_pretty(&record)?.as_bytes(),
-    )?;
+    write_record(dir, &record)?;
     staged.commit()?;
     let _ = std::fs::remove_file(out.failure(&job.hash));
     if let Some(key) = &job.reference {
