@@ -71,3 +71,33 @@ pub fn real_data_required() -> bool {
         .map(|v| v == "true" || v == "1")
         .unwrap_or(false)
 }
+
+/// Writes `dir/<name>.toml`: an experiment called `name` on the scene preset
+/// `experiments/scenes/<scene>`, followed by `tables` (its `[set]`, `[axes]`, … tables).
+pub fn write_experiment(dir: &Path, name: &str, scene: &str, tables: &str) -> PathBuf {
+    let scene = workspace().join("experiments/scenes").join(scene);
+    let path = dir.join(format!("{name}.toml"));
+    let text = format!(
+        "name = \"{name}\"\nscene = \"{}\"\n{tables}\n",
+        scene.display()
+    );
+    std::fs::write(&path, text).expect("experiment file written");
+    path
+}
+
+/// A CSV file's header and rows.
+pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let mut r =
+        csv::Reader::from_path(path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
+    let headers = r
+        .headers()
+        .expect("CSV header")
+        .iter()
+        .map(str::to_string)
+        .collect();
+    let rows = r
+        .records()
+        .map(|rec| rec.expect("CSV row").iter().map(str::to_string).collect())
+        .collect();
+    (headers, rows)
+}

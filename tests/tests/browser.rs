@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex};
 use headless_chrome::protocol::cdp::types::Event;
 use headless_chrome::protocol::cdp::{Log, Page, Runtime};
 use headless_chrome::{Browser, LaunchOptions};
-use volphot_tests::{real_data_required, run_ok, sweep, workspace};
+use volphot_tests::{real_data_required, run_ok, sweep, write_experiment};
 
 /// Chromium from `$CHROMIUM` or the usual Debian paths.
 fn chromium() -> Option<PathBuf> {
@@ -29,14 +29,11 @@ fn chromium() -> Option<PathBuf> {
 /// A small phantom sweep with every kind of figure: contact sheet, plot, layer differences,
 /// reference comparison.
 fn small_report(dir: &Path) -> PathBuf {
-    let scene = workspace().join("experiments/scenes/phantom-engine.toml");
-    let exp = dir.join("browser.toml");
-    std::fs::write(
-        &exp,
-        format!(
-            r#"
-name = "browser"
-scene = "{}"
+    let exp = write_experiment(
+        dir,
+        "browser",
+        "phantom-engine.toml",
+        r#"
 [set]
 "volume.phantom.resolution" = [24, 24, 24]
 "camera.resolution" = [32, 32]
@@ -60,10 +57,7 @@ x = "integrator.nused"
 y = ["disco_energy", "rmse"]
 series = "sigma.t"
 "#,
-            scene.display()
-        ),
-    )
-    .unwrap();
+    );
     let out = dir.join("out");
     run_ok(
         sweep()

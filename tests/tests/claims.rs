@@ -3,39 +3,24 @@
 //! `sweep` binary, so that a regression in the renderer or a metric shows up in CI.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use volphot_tests::{run_ok, sweep, workspace};
+use volphot_tests::{read_csv, run_ok, sweep, write_experiment};
 
-/// Runs a small experiment on a phantom scene; returns rows keyed by the given axes.
+/// Runs a small experiment on a phantom scene; returns rows keyed by column name.
 fn run_grid(name: &str, scene: &str, set: &str, axes: &str) -> Vec<HashMap<String, String>> {
     let tmp = tempfile::tempdir().unwrap();
-    let scene = workspace().join("experiments/scenes").join(scene);
-    let exp = tmp.path().join(format!("{name}.toml"));
-    std::fs::write(
-        &exp,
-        format!(
-            "name = \"{name}\"\nscene = \"{}\"\n[set]\n{set}\n[axes]\n{axes}\n",
-            scene.display()
-        ),
-    )
-    .unwrap();
+    let exp = write_experiment(
+        tmp.path(),
+        name,
+        scene,
+        &format!("[set]\n{set}\n[axes]\n{axes}"),
+    );
     let out: PathBuf = tmp.path().join("out");
     run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
-    read_rows(&out.join("cells.csv"))
-}
-
-fn read_rows(path: &Path) -> Vec<HashMap<String, String>> {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let headers: Vec<String> = r.headers().unwrap().iter().map(str::to_string).collect();
-    r.records()
-        .map(|rec| {
-            headers
-                .iter()
-                .cloned()
-                .zip(rec.unwrap().iter().map(str::to_string))
-                .collect()
-        })
+    let (headers, rows) = read_csv(&out.join("cells.csv"));
+    rows.into_iter()
+        .map(|row| headers.iter().cloned().zip(row).collect())
         .collect()
 }
 

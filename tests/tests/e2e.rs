@@ -3,15 +3,18 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use volphot_tests::{data_dir, real_data_required, run_ok, sweep, workspace};
+use volphot_tests::{
+    data_dir, read_csv, real_data_required, run_ok, sweep, workspace, write_experiment,
+};
 
 /// A small phantom experiment: `nused` × σt(d_min) on the engine phantom.
 fn phantom_experiment(dir: &Path, resolution: u32, extra_axis: &str) -> PathBuf {
-    let scene = workspace().join("experiments/scenes/phantom-engine.toml");
-    let text = format!(
-        r#"
-name = "e2e"
-scene = "{}"
+    write_experiment(
+        dir,
+        "e2e",
+        "phantom-engine.toml",
+        &format!(
+            r#"
 [set]
 "volume.phantom.resolution" = [32, 32, 32]
 "camera.resolution" = [{resolution}, {resolution}]
@@ -27,22 +30,9 @@ spp = 8
 kind = "layers"
 [[compare]]
 kind = "reference"
-"#,
-        scene.display()
-    );
-    let path = dir.join("e2e.toml");
-    std::fs::write(&path, text).unwrap();
-    path
-}
-
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let headers = r.headers().unwrap().iter().map(str::to_string).collect();
-    let rows = r
-        .records()
-        .map(|rec| rec.unwrap().iter().map(str::to_string).collect())
-        .collect();
-    (headers, rows)
+"#
+        ),
+    )
 }
 
 fn column<'a>(headers: &[String], rows: &'a [Vec<String>], name: &str) -> Vec<&'a str> {

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-use volphot_tests::{run_ok, sweep, workspace};
+use volphot_tests::{read_csv, run_ok, sweep, workspace, write_experiment};
 
 /// Starts the cluster in its own folder and ports; stops it on drop.
 struct Cluster {
@@ -72,11 +72,11 @@ fn enabled() -> bool {
 }
 
 fn experiment(dir: &Path) -> PathBuf {
-    let scene = workspace().join("experiments/scenes/phantom-foot.toml");
-    let text = format!(
+    write_experiment(
+        dir,
+        "slurm-e2e",
+        "phantom-foot.toml",
         r#"
-name = "slurm-e2e"
-scene = "{}"
 [set]
 "volume.phantom.resolution" = [32, 32, 32]
 "camera.resolution" = [32, 32]
@@ -88,19 +88,14 @@ scene = "{}"
 [[compare]]
 kind = "layers"
 "#,
-        scene.display()
-    );
-    let path = dir.join("slurm-e2e.toml");
-    std::fs::write(&path, text).unwrap();
-    path
+    )
 }
 
 /// cells.csv without the columns that legitimately differ between runs: timings, memory,
 /// host, and how many cells shared a march (a resubmitted cell renders alone; its image
 /// is the same).
 fn stable_csv(path: &Path) -> Vec<Vec<String>> {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let headers: Vec<String> = r.headers().unwrap().iter().map(str::to_string).collect();
+    let (headers, rows) = read_csv(path);
     let keep: Vec<usize> = headers
         .iter()
         .enumerate()
@@ -112,12 +107,10 @@ fn stable_csv(path: &Path) -> Vec<Vec<String>> {
         })
         .map(|(i, _)| i)
         .collect();
-    let mut rows = vec![keep.iter().map(|&i| headers[i].clone()).collect::<Vec<_>>()];
-    for rec in r.records() {
-        let rec = rec.unwrap();
-        rows.push(keep.iter().map(|&i| rec[i].to_string()).collect());
-    }
-    rows
+    std::iter::once(&headers)
+        .chain(&rows)
+        .map(|row| keep.iter().map(|&i| row[i].clone()).collect())
+        .collect()
 }
 
 fn cell_dirs(out: &Path) -> Vec<PathBuf> {
