@@ -133,7 +133,7 @@ fn phantom_grid_runs_reports_and_resumes() {
     );
     for hash in column(&headers, &rows, "hash") {
         let dir = out.join("cells").join(hash);
-        let film = volphot::film::Film::read_exr(&dir.join("film.exr")).unwrap();
+        let film = volphot::Film::read_exr(&dir.join("film.exr")).unwrap();
         assert_eq!((film.width(), film.height()), (40, 40));
         for png in ["total.png", "single.png", "multiple.png"] {
             let img = image::open(dir.join(png)).unwrap();
@@ -319,9 +319,9 @@ fn render_writes_layers_png_pfm_and_sidecar() {
                 "-q",
             ]),
     );
-    let film = volphot::film::Film::read_exr(&tmp.path().join("phantom-head.exr")).unwrap();
+    let film = volphot::Film::read_exr(&tmp.path().join("phantom-head.exr")).unwrap();
     assert_eq!((film.width(), film.height()), (32, 24));
-    assert!(film.mean(volphot::film::Layer::Multiple) > 0.0);
+    assert!(film.mean(volphot::Layer::Multiple) > 0.0);
     image::open(tmp.path().join("phantom-head.png")).unwrap();
     assert!(tmp.path().join("phantom-head.pfm").is_file());
     let json: serde_json::Value = serde_json::from_str(

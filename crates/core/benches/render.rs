@@ -13,14 +13,14 @@ use std::path::Path;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::Vec3;
-use volphot::integrator::render_march;
-use volphot::photon::{TraceSettings, trace};
-use volphot::photon_map::{GatherScratch, GatherVariant, Gathered, PhotonMap};
-use volphot::render::build_photon_map;
-use volphot::sampling::Phase;
-use volphot::scene::{Scene, SceneParams, load_params};
-use volphot::settings::{FreePath, IntegratorParams};
-use volphot::volume::registry::SearchPath;
+use volphot::Phase;
+use volphot::SearchPath;
+use volphot::build_photon_map;
+use volphot::render_march;
+use volphot::{FreePath, IntegratorParams};
+use volphot::{GatherScratch, GatherVariant, Gathered, PhotonMap};
+use volphot::{Scene, SceneParams, load_params};
+use volphot::{TraceSettings, trace};
 
 fn phantom_scene(resolution: u32) -> Scene {
     let src = format!(

@@ -80,9 +80,56 @@ pub enum Error {
         actual: String,
     },
 
-    /// The renderer was asked for something impossible with a valid scene.
-    #[error("{0}")]
-    Render(String),
+    /// A volume holds a NaN or infinite voxel.
+    #[error(
+        "{source_name}: voxel {index} (x = {x}, y = {y}, z = {z}) is {value}; every voxel must be a finite number (replace NaN/∞ in the data, e.g. with the background value)",
+        x = position[0],
+        y = position[1],
+        z = position[2]
+    )]
+    NonFiniteVoxel {
+        /// The file or phantom, described.
+        source_name: String,
+        /// Linear index `x + nx·(y + ny·z)` of the first bad voxel.
+        index: usize,
+        /// Its position `(x, y, z)`.
+        position: [usize; 3],
+        /// The value found.
+        value: f32,
+    },
+
+    /// A render was asked to use a photon map it was not given.
+    #[error(
+        "multiple-scattering variant uses photon map {index} but {given} map(s) were given (build one with build_photon_map)"
+    )]
+    MissingPhotonMap {
+        /// The index asked for.
+        index: usize,
+        /// How many maps were given.
+        given: usize,
+    },
+
+    /// Two images (or an image and a scene) that must have the same size do not.
+    #[error("{what} is {}×{} but {other} is {}×{}", size[0], size[1], other_size[0], other_size[1])]
+    SizeMismatch {
+        /// The first image.
+        what: String,
+        /// Its size.
+        size: [usize; 2],
+        /// What it must match.
+        other: String,
+        /// That size.
+        other_size: [usize; 2],
+    },
+
+    /// A progressive render cannot resume from a film that lacks its statistics.
+    #[error(
+        "{what}: the film has no variance layers to resume from (render it again from the start)"
+    )]
+    CannotResume {
+        /// The film.
+        what: String,
+    },
 }
 
 impl Error {

@@ -4,52 +4,101 @@
 //! *Photon Mapping zur Verbesserung medizinischer Volumenvisualisierung* (section numbers
 //! `§…` in these docs refer to it), built for measured parameter studies.
 //!
-//! Data flows one way:
+//! Data flows one way, one module per stage:
 //!
-//! volume file → [`volume::Volume`] (grid + reconstruction) → [`medium::Medium`] (transfer
-//! function + σ mapping, majorant bricks) → [`scene::Scene`] (+ camera, lights) → photon
-//! tracing → photon map → integrator → film (HDR, with separate single / multiple /
-//! emission layers).
+//! ```text
+//! volume ─→ medium ─→ scene ─→ photon tracing ─→ photon map ─→ integrator ─→ film
+//! (file,     (transfer  (camera,  (free paths,     (kd-tree,     (ray marching  (layers,
+//!  phantom,   function, lights,    Russian          radiance      + caches; or   EXR/PNG/
+//!  registry)  σ, bricks) params)   roulette)        estimate)     reference)     PFM)
+//! ```
+//!
+//! * [`Volume`] — a normalised density grid from RAW/NRRD/MetaImage, a phantom or the
+//!   dataset registry ([`load_dataset`], [`read_volume`]);
+//! * [`Medium`] — transfer function + σ mapping + phase function, majorant bricks, and every
+//!   free-path tracker on one collision loop;
+//! * [`Scene`] — a medium with camera, lights and integrator settings, loaded from a TOML
+//!   scene file ([`Scene::load`]) with located errors;
+//! * [`trace`] and [`PhotonMap`] — photon tracing and the volume photon map (§5);
+//! * [`render_march`] (the thesis's integrator, §6) and [`render_reference`] (the unbiased
+//!   path tracer);
+//! * [`Film`] — single / multiple / emission layers from one pass;
+//! * [`render`] — the one-call entry, and [`render_shared`] for several settings from one
+//!   march.
 //!
 //! ```
 //! use std::path::Path;
-//! use volphot::scene::{Scene, SceneParams};
-//! use volphot::volume::registry::SearchPath;
+//! use volphot::{Layer, Scene, SceneParams, SearchPath, render};
 //!
 //! let src = r#"
 //! [volume]
 //! phantom = { name = "sphere", resolution = [16, 16, 16] }
 //! [sigma]
 //! t = 10
+//! [camera]
+//! resolution = [16, 16]
 //! [three_point]
+//! [integrator]
+//! volume_photons = 2000
+//! stepsize = 0.01
 //! "#;
 //! let params = SceneParams::from_toml(src, Path::new("inline.toml")).unwrap();
 //! let scene = Scene::from_params(&params, Path::new("."), &SearchPath::new(vec![])).unwrap();
 //! assert_eq!(scene.lights().len(), 3);
 //! assert!((scene.medium().report().sigma_t_at_dmin - 10.0).abs() < 1e-4);
+//!
+//! let out = render(&scene, &|_rows| {}).unwrap();
+//! assert!(out.film.mean(Layer::Single) > 0.0);
+//! assert!(out.film.mean(Layer::Multiple) > 0.0);
 //! ```
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
-pub mod camera;
-pub mod checksum;
-pub mod error;
-pub mod film;
-pub mod fsutil;
-pub mod geometry;
-pub mod grid;
-pub mod integrator;
-pub mod light;
-pub mod medium;
-pub mod photon;
-pub mod photon_map;
-pub mod reference;
-pub mod render;
-pub mod rng;
-pub mod sampling;
-pub mod scene;
-pub mod settings;
-pub mod sigma;
-pub mod transfer;
-pub mod volume;
+mod error;
+mod film;
+mod integrator;
+mod math;
+mod medium;
+mod photon;
+mod render;
+mod scene;
+mod util;
+mod volume;
 
-pub use error::{Error, Result};
+pub use error::{Error, Result, check_non_negative, check_positive, check_range};
+pub use film::{Film, Layer, mean_rgb, to_srgb8, write_pfm, write_png, write_png_rgb8};
+pub use integrator::{
+    CACHE_TAU_MAX, MAX_VERTICES, MarchOutput, MarchStats, MsVariant, ReferenceAccumulator,
+    render_march, render_reference,
+};
+pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
+pub use medium::{
+    Coefficients, DEFAULT_BRICK_SIZE, FreePath, MajorantGrid, MajorantSegment, MajorantSegments,
+    MappingKind, Medium, MediumSettings, Pgm, Phase, SigmaMapping, SigmaParams, SigmaReport, Split,
+    THESIS_ALBEDO, THESIS_T, TransferFunction, TransferKind, TransferParams, parse_pgm,
+    sample_interaction_march, sample_interaction_thesis, write_pgm,
+};
+pub use photon::{
+    GatherScratch, GatherVariant, Gathered, MAX_INTERACTIONS, Photon, PhotonMap, PhotonStats,
+    TraceSettings, photons_per_light, trace,
+};
+pub use render::{
+    Provenance, RenderOutput, RenderRecord, SharedFilm, SharedRender, Timings, build_photon_map,
+    march_key, photon_map_key, record, render, render_shared,
+};
+pub use scene::{
+    BoxParams, Camera, CameraParams, Estimate, FilmParams, Incident, IntegratorParams, Intensity,
+    Light, LightKind, LightParams, Method, PhaseParams, PointLight, Quadrature, Scene, SceneParams,
+    ShadowEstimator, SpotLight, ThreePointParams, VolumeParams, build_medium, key_at, line_col,
+    load_params, load_volume, locate, locate_error, three_point, toml_error, validate_params,
+};
+pub use util::{
+    cache_dir, memory_budget_bytes, peak_memory_bytes, sha256_bytes, sha256_cached, sha256_file,
+    temp_sibling, write_atomic, write_atomic_with,
+};
+pub use volume::{
+    ByteOrder, DATASETS, DatasetInfo, DatasetOverrides, DatasetStatus, FileRequest, Grid,
+    LoadedVoxels, Normalization, NormalizationRecord, PhantomParams, Placement, RawLayout,
+    Reconstruction, SearchPath, Volume, VolumeSource, VoxelType, check_dims, find_dataset,
+    load_dataset, read_metaimage, read_nrrd, read_volume, read_voxels, survey_datasets,
+    write_metaimage, write_nrrd,
+};

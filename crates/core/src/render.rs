@@ -1,18 +1,22 @@
-//! One call from a [`Scene`] to a [`Film`]: photon tracing, kd-tree, marching (or the
-//! reference path tracer), with timings per phase and a record of everything used.
+//! The one-call entry: from a [`Scene`] to a [`Film`] — photon tracing, kd-tree, marching
+//! (or the reference path tracer) — with timings per phase and a record of everything used;
+//! and [`render_shared`], which renders several integrator settings that differ only in
+//! their multiple-scattering parameters from ONE march (one eye-ray pass, one single-
+//! scattering layer, photon maps shared where their parameters agree).
 
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
-use crate::film::Film;
-use crate::integrator::{MarchStats, render_march};
-use crate::photon::{PhotonStats, TraceSettings, trace};
-use crate::photon_map::PhotonMap;
-use crate::scene::{Scene, SceneParams};
-use crate::settings::Method;
-use crate::sigma::SigmaReport;
+use crate::film::{Film, Layer};
+use crate::integrator::{MarchStats, MsVariant, render_march, render_reference};
+use crate::medium::{FreePath, SigmaReport};
+use crate::photon::{PhotonMap, PhotonStats, TraceSettings, trace};
+use crate::scene::{
+    Estimate, IntegratorParams, Method, Quadrature, Scene, SceneParams, ShadowEstimator,
+};
+use crate::util::peak_memory_bytes;
 use crate::volume::VolumeSource;
 
 /// Seconds per phase.
@@ -105,14 +109,6 @@ pub fn build_photon_map(scene: &Scene) -> PhotonMap {
     PhotonMap::new(photons, stats)
 }
 
-/// Peak resident set size of this process (Linux `VmHWM`), if available.
-pub fn peak_memory_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
-
 /// Renders a scene with the method it asks for.
 pub fn render(scene: &Scene, progress: &(dyn Fn(u64) + Sync)) -> Result<RenderOutput> {
     let start = Instant::now();
@@ -135,8 +131,7 @@ pub fn render(scene: &Scene, progress: &(dyn Fn(u64) + Sync)) -> Result<RenderOu
             (film, map.map(|m| m.stats().clone()), Some(out.stats), None)
         }
         Method::Reference => {
-            let (film, seconds) =
-                crate::reference::render_reference(scene, s.reference_spp, progress)?;
+            let (film, seconds) = render_reference(scene, s.reference_spp, progress)?;
             timings.render = seconds;
             (film, None, None, Some(s.reference_spp))
         }
@@ -166,4 +161,162 @@ pub fn record(
         peak_memory_bytes: peak_memory_bytes(),
         threads: rayon::current_num_threads(),
     }
+}
+
+/// The scene parameters that only change the multiple-scattering layer, reset: scenes with
+/// equal keys render from one march ([`render_shared`]).
+pub fn march_key(params: &SceneParams) -> String {
+    let mut p = params.clone();
+    p.integrator.volume_photons = 0;
+    p.integrator.nused = 1;
+    p.integrator.maxdist = 1.0;
+    p.integrator.free_path = FreePath::Delta;
+    p.integrator.estimate = Estimate::Masked;
+    p.integrator.multiple = false;
+    p.integrator.reference_spp = 1;
+    serde_json::to_string(&p).expect("scene params serialise")
+}
+
+/// The scene parameters that determine a photon map (everything else reset): variants with
+/// equal keys share one map.
+pub fn photon_map_key(params: &SceneParams) -> String {
+    let mut p = params.clone();
+    let i = &mut p.integrator;
+    i.nused = 1;
+    i.maxdist = 1.0;
+    i.estimate = Estimate::Masked;
+    i.multiple = true;
+    i.single = true;
+    i.emission = false;
+    i.spp = 1;
+    i.shadow = ShadowEstimator::March;
+    i.quadrature = Quadrature::Exact;
+    i.termination = 0.0;
+    i.shadow_cache = 0;
+    i.ms_cache = 0;
+    i.reference_spp = 1;
+    p.camera.resolution = [1, 1];
+    p.camera.fov = 1.0;
+    p.film = Default::default();
+    serde_json::to_string(&p).expect("scene params serialise")
+}
+
+/// One variant of a [`render_shared`] call.
+#[derive(Debug, Clone)]
+pub struct SharedFilm {
+    /// The image layers (the multiple layer black when the variant has `multiple = false`).
+    pub film: Film,
+    /// Statistics of the variant's photon map, when it used one.
+    pub photons: Option<PhotonStats>,
+    /// Seconds spent tracing that photon map (shared maps count fully for each variant).
+    pub photon_seconds: f64,
+    /// Seconds spent building its kd-tree.
+    pub tree_seconds: f64,
+    /// Variants that used the same photon map (0 without one).
+    pub map_shared_by: usize,
+}
+
+/// What [`render_shared`] produced.
+#[derive(Debug, Clone)]
+pub struct SharedRender {
+    /// One film per requested integrator setting, in order.
+    pub films: Vec<SharedFilm>,
+    /// Photon maps built.
+    pub photon_maps: usize,
+    /// Seconds of the shared march (or of the reference render).
+    pub render_seconds: f64,
+}
+
+/// Renders `scene` once for several integrator settings that share its [`march_key`] — i.e.
+/// differ only in `volume_photons`, `nused`, `maxdist`, `free_path`, `estimate` and
+/// `multiple` — from ONE march. `scene` is any of them with `multiple` on when any variant
+/// wants it. Each distinct [`photon_map_key`] gets one photon map, and variants on one map
+/// share one k-NN query per sample. Films are identical to rendering each setting alone.
+pub fn render_shared(
+    scene: &Scene,
+    variants: &[IntegratorParams],
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<SharedRender> {
+    if scene.integrator().method == Method::Reference {
+        let out = render(scene, progress)?;
+        let film = SharedFilm {
+            film: out.film,
+            photons: None,
+            photon_seconds: 0.0,
+            tree_seconds: 0.0,
+            map_shared_by: 0,
+        };
+        return Ok(SharedRender {
+            films: vec![film; variants.len()],
+            photon_maps: 0,
+            render_seconds: out.record.timings.render,
+        });
+    }
+    // Photon maps, one per distinct photon key; `film_of[k]` is variant k's film in the march.
+    let mut maps: Vec<(String, PhotonMap)> = Vec::new();
+    let mut ms_variants = Vec::new();
+    let mut film_of = Vec::new();
+    for integrator in variants {
+        if !integrator.multiple {
+            film_of.push(None);
+            continue;
+        }
+        let mut params = scene.params().clone();
+        params.integrator = integrator.clone();
+        let key = photon_map_key(&params);
+        let map = match maps.iter().position(|(k, _)| *k == key) {
+            Some(i) => i,
+            None => {
+                let s = scene.with_integrator(integrator.clone())?;
+                maps.push((key, build_photon_map(&s)));
+                maps.len() - 1
+            }
+        };
+        film_of.push(Some(ms_variants.len()));
+        ms_variants.push(MsVariant {
+            map,
+            nused: integrator.nused,
+            maxdist: integrator.maxdist,
+            estimate: integrator.estimate,
+        });
+    }
+    let map_refs: Vec<&PhotonMap> = maps.iter().map(|(_, m)| m).collect();
+    let out = render_march(scene, &map_refs, &ms_variants, progress)?;
+    let films = film_of
+        .iter()
+        .map(|slot| match slot {
+            Some(i) => {
+                let map = &maps[ms_variants[*i].map].1;
+                SharedFilm {
+                    film: out.films[*i].clone(),
+                    photons: Some(map.stats().clone()),
+                    photon_seconds: map.stats().seconds,
+                    tree_seconds: map.build_seconds(),
+                    map_shared_by: ms_variants
+                        .iter()
+                        .filter(|v| v.map == ms_variants[*i].map)
+                        .count(),
+                }
+            }
+            None => {
+                let mut film = out.films[0].clone();
+                film.set_layer(
+                    Layer::Multiple,
+                    vec![glam::Vec3::ZERO; film.width() * film.height()],
+                );
+                SharedFilm {
+                    film,
+                    photons: None,
+                    photon_seconds: 0.0,
+                    tree_seconds: 0.0,
+                    map_shared_by: 0,
+                }
+            }
+        })
+        .collect();
+    Ok(SharedRender {
+        films,
+        photon_maps: maps.len(),
+        render_seconds: out.stats.seconds,
+    })
 }

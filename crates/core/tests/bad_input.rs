@@ -3,11 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
-use volphot::scene::{Scene, SceneParams, locate_error, validate_params};
-use volphot::sigma::{SigmaMapping, SigmaParams};
-use volphot::transfer::TransferFunction;
-use volphot::volume::registry::SearchPath;
-use volphot::volume::{ByteOrder, FileRequest, Normalization, RawLayout, VoxelType, load};
+use volphot::SearchPath;
+use volphot::TransferFunction;
+use volphot::{ByteOrder, FileRequest, Normalization, RawLayout, VoxelType, read_volume};
+use volphot::{Scene, SceneParams, locate_error, validate_params};
+use volphot::{SigmaMapping, SigmaParams};
 
 /// Runs a loader on a scratch folder and returns its error text.
 type Loader = Box<dyn Fn(&Path) -> Result<(), String>>;
@@ -62,7 +62,7 @@ fn cases() -> Vec<Case> {
             "raw: truncated file",
             Box::new(|d| {
                 let p = write(d, "t.raw", &[0u8; 500]);
-                load(&raw_request(p, [8, 8, 8], VoxelType::U8))
+                read_volume(&raw_request(p, [8, 8, 8], VoxelType::U8))
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -72,7 +72,7 @@ fn cases() -> Vec<Case> {
             "raw: wrong type (u16 dims on an 8-bit file)",
             Box::new(|d| {
                 let p = write(d, "w.raw", &[0u8; 512]);
-                load(&raw_request(p, [8, 8, 8], VoxelType::U16))
+                read_volume(&raw_request(p, [8, 8, 8], VoxelType::U16))
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -82,7 +82,7 @@ fn cases() -> Vec<Case> {
             "raw: zero dimension",
             Box::new(|d| {
                 let p = write(d, "z.raw", &[0u8; 8]);
-                load(&raw_request(p, [8, 0, 1], VoxelType::U8))
+                read_volume(&raw_request(p, [8, 0, 1], VoxelType::U8))
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -92,7 +92,7 @@ fn cases() -> Vec<Case> {
             "raw: dims too large for memory",
             Box::new(|d| {
                 let p = write(d, "huge.raw", &[0u8; 8]);
-                load(&raw_request(p, [1 << 20, 1 << 20, 1 << 10], VoxelType::U8))
+                read_volume(&raw_request(p, [1 << 20, 1 << 20, 1 << 10], VoxelType::U8))
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -101,7 +101,7 @@ fn cases() -> Vec<Case> {
         s(
             "raw: missing file",
             Box::new(|d| {
-                load(&raw_request(d.join("absent.raw"), [2, 2, 2], VoxelType::U8))
+                read_volume(&raw_request(d.join("absent.raw"), [2, 2, 2], VoxelType::U8))
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -113,7 +113,7 @@ fn cases() -> Vec<Case> {
                 let p = write(d, "c.raw", &[1u8; 8]);
                 let mut r = raw_request(p, [2, 2, 2], VoxelType::U8);
                 r.expected_sha256 = Some("00".repeat(32));
-                load(&r).map(|_| ()).map_err(|e| e.to_string())
+                read_volume(&r).map(|_| ()).map_err(|e| e.to_string())
             }),
             &["c.raw", "sha256", "0000"],
         ),
@@ -122,7 +122,7 @@ fn cases() -> Vec<Case> {
             "nrrd: bad magic",
             Box::new(|d| {
                 let p = write(d, "m.nrrd", b"NRRX0004\ntype: uchar\n\n");
-                volphot::volume::nrrd::read(&p)
+                volphot::read_nrrd(&p)
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -132,7 +132,7 @@ fn cases() -> Vec<Case> {
             "nrrd: unsupported type",
             Box::new(|d| {
                 let p = write(d, "ty.nrrd", b"NRRD0004\ntype: double\ndimension: 3\nsizes: 2 2 2\nencoding: raw\nendian: little\n\n");
-                volphot::volume::nrrd::read(&p)
+                volphot::read_nrrd(&p)
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -146,7 +146,7 @@ fn cases() -> Vec<Case> {
                         .to_vec();
                 bytes.extend_from_slice(&[0u8; 10]);
                 let p = write(d, "tr.nrrd", &bytes);
-                volphot::volume::nrrd::read(&p)
+                volphot::read_nrrd(&p)
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -160,7 +160,7 @@ fn cases() -> Vec<Case> {
                     "2d.nrrd",
                     b"NRRD0004\ntype: uchar\ndimension: 2\nsizes: 2 2\nencoding: raw\n\n\0\0\0\0",
                 );
-                volphot::volume::nrrd::read(&p)
+                volphot::read_nrrd(&p)
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -174,7 +174,7 @@ fn cases() -> Vec<Case> {
                     "ns.nrrd",
                     b"NRRD0004\ntype: uchar\ndimension: 3\nencoding: raw\n\n",
                 );
-                volphot::volume::nrrd::read(&p)
+                volphot::read_nrrd(&p)
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -185,7 +185,7 @@ fn cases() -> Vec<Case> {
             "mhd: unsupported element type",
             Box::new(|d| {
                 let p = write(d, "e.mhd", b"NDims = 3\nDimSize = 2 2 2\nElementType = MET_DOUBLE\nElementDataFile = e.raw\n");
-                volphot::volume::metaimage::read(&p)
+                volphot::read_metaimage(&p)
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -195,7 +195,7 @@ fn cases() -> Vec<Case> {
             "mhd: data file missing",
             Box::new(|d| {
                 let p = write(d, "f.mhd", b"NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nElementDataFile = gone.raw\n");
-                volphot::volume::metaimage::read(&p)
+                volphot::read_metaimage(&p)
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -207,7 +207,7 @@ fn cases() -> Vec<Case> {
                 let mut bytes = b"NDims = 3\nDimSize = 4 4 4\nElementType = MET_USHORT\nElementDataFile = LOCAL\n".to_vec();
                 bytes.extend_from_slice(&[0u8; 20]);
                 let p = write(d, "t.mha", &bytes);
-                volphot::volume::metaimage::read(&p)
+                volphot::read_metaimage(&p)
                     .map(|_| ())
                     .map_err(|e| e.to_string())
             }),
@@ -217,11 +217,7 @@ fn cases() -> Vec<Case> {
         s(
             "pgm: wrong size",
             Box::new(|d| {
-                let p = write(
-                    d,
-                    "small.pgm",
-                    &volphot::transfer::write_pgm(16, 16, &[0u8; 256]),
-                );
+                let p = write(d, "small.pgm", &volphot::write_pgm(16, 16, &[0u8; 256]));
                 TransferFunction::from_pgm(&p)
                     .map(|_| ())
                     .map_err(|e| e.to_string())
@@ -361,7 +357,7 @@ fn cases() -> Vec<Case> {
             "sigma: chromatic extinction",
             Box::new(|_| {
                 SigmaMapping::create(&SigmaParams {
-                    mapping: "explicit".into(),
+                    mapping: volphot::MappingKind::Explicit,
                     sigma_a: Some([1.0, 1.0, 1.0]),
                     sigma_s: Some([10.0, 5.0, 10.0]),
                     ..Default::default()

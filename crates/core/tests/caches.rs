@@ -3,10 +3,10 @@
 
 mod common;
 
-use volphot::film::Layer;
-use volphot::integrator::render_march;
-use volphot::render::build_photon_map;
-use volphot::settings::IntegratorParams;
+use volphot::IntegratorParams;
+use volphot::Layer;
+use volphot::build_photon_map;
+use volphot::render_march;
 
 const SCENE: &str = r#"
 [volume]

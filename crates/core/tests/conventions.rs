@@ -3,8 +3,8 @@
 mod common;
 
 use glam::Vec3;
-use volphot::film::Layer;
-use volphot::integrator::render_march;
+use volphot::Layer;
+use volphot::render_march;
 
 #[test]
 fn orientation_phantom_lands_where_expected() {

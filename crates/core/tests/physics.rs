@@ -4,13 +4,13 @@
 mod common;
 
 use glam::Vec3;
-use volphot::film::{Layer, mean_rgb};
-use volphot::integrator::render_march;
-use volphot::photon::{TraceSettings, sample_interaction_march, sample_interaction_thesis, trace};
-use volphot::reference::render_reference;
-use volphot::render::build_photon_map;
-use volphot::rng::{Domain, Rng};
-use volphot::settings::FreePath;
+use volphot::FreePath;
+use volphot::build_photon_map;
+use volphot::render_march;
+use volphot::render_reference;
+use volphot::{Domain, Rng};
+use volphot::{Layer, mean_rgb};
+use volphot::{TraceSettings, sample_interaction_march, sample_interaction_thesis, trace};
 
 /// A homogeneous unit cube (σt = 4, albedo 0.75) seen by a 1×1 camera along +y through its
 /// centre, lit by a point light at (1.5, 0.5, 0.5).
@@ -109,7 +109,7 @@ fn escape_fraction(sigma_t: f64) -> f64 {
     sum / (n * n) as f64
 }
 
-fn cube_with_central_light(sigma_t: f32, albedo: f32) -> volphot::scene::Scene {
+fn cube_with_central_light(sigma_t: f32, albedo: f32) -> volphot::Scene {
     common::scene(&format!(
         r#"
 [volume]
@@ -162,7 +162,7 @@ fn photon_energy_bookkeeping_matches_closed_forms() {
 
 /// A two-slab medium along x (σt = 2 for x < ½, 8 beyond), nearest reconstruction so the
 /// step is exact: the free-path CDF from x = 0 along +x is F(t) = 1 − exp(−τ(t)).
-fn two_slab() -> volphot::scene::Scene {
+fn two_slab() -> volphot::Scene {
     common::scene(
         r#"
 [volume]
@@ -217,7 +217,7 @@ fn ks_distance(mut samples: Vec<f64>) -> f64 {
 fn free_path_rules_ks_test_in_two_slab_medium() {
     let scene = two_slab();
     let medium = scene.medium();
-    let ray = volphot::geometry::Ray::new(Vec3::new(0.0, 0.5, 0.5), Vec3::X);
+    let ray = volphot::Ray::new(Vec3::new(0.0, 0.5, 0.5), Vec3::X);
     let n = 20_000;
     // 99.9 % critical value of the one-sample KS statistic.
     let critical = 1.95 / (n as f64).sqrt();
@@ -332,7 +332,7 @@ fn photon_integrator_agrees_with_reference_and_converges() {
 
     // Single scattering: same integral, different estimators.
     let scene = base
-        .with_integrator(volphot::settings::IntegratorParams {
+        .with_integrator(volphot::IntegratorParams {
             multiple: false,
             spp: 16,
             ..base.integrator().clone()
@@ -356,7 +356,7 @@ fn photon_integrator_agrees_with_reference_and_converges() {
     let mut errors = Vec::new();
     for (photons, nused) in [(10_000u64, 20u32), (100_000, 60), (1_000_000, 200)] {
         let scene = base
-            .with_integrator(volphot::settings::IntegratorParams {
+            .with_integrator(volphot::IntegratorParams {
                 volume_photons: photons,
                 nused,
                 spp: 4,
@@ -456,13 +456,13 @@ spp = 4
     let map = build_photon_map(&base);
     let mut ratios = Vec::new();
     for estimate in [
-        volphot::settings::Estimate::Masked,
-        volphot::settings::Estimate::Fluence,
-        volphot::settings::Estimate::Albedo,
-        volphot::settings::Estimate::Thesis,
+        volphot::Estimate::Masked,
+        volphot::Estimate::Fluence,
+        volphot::Estimate::Albedo,
+        volphot::Estimate::Thesis,
     ] {
         let scene = base
-            .with_integrator(volphot::settings::IntegratorParams {
+            .with_integrator(volphot::IntegratorParams {
                 estimate,
                 ..base.integrator().clone()
             })

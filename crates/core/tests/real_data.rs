@@ -4,7 +4,7 @@
 
 mod common;
 
-use volphot::volume::registry::{DATASETS, DatasetOverrides, load_dataset};
+use volphot::{DATASETS, DatasetOverrides, load_dataset};
 
 /// (name, min, max, mean) of the raw values as documented in `../shared/data/README.md`.
 const STATS: &[(&str, f64, f64, f64, f64)] = &[
@@ -52,10 +52,10 @@ fn every_dataset_loads_with_its_checksum_and_documented_statistics() {
             (raw_mean - mean).abs() <= tol,
             "{name}: mean {raw_mean} vs {mean}"
         );
-        let info = volphot::volume::registry::find(name).unwrap();
+        let info = volphot::find_dataset(name).unwrap();
         assert_eq!(v.grid().dims(), info.dims);
         match v.source() {
-            volphot::volume::VolumeSource::File {
+            volphot::VolumeSource::File {
                 sha256, dataset, ..
             } => {
                 assert_eq!(sha256, info.sha256);
@@ -129,7 +129,7 @@ fn header_formats_read_the_real_files_voxel_for_voxel() {
     if !data_available() {
         return;
     }
-    use volphot::volume::{metaimage, nrrd, registry::find};
+    use volphot::{find_dataset as find, read_metaimage, read_nrrd, write_metaimage, write_nrrd};
     let search = common::search_path();
     let tmp = tempfile::tempdir().unwrap();
     for (name, nrrd_type, met_type) in [
@@ -141,7 +141,7 @@ fn header_formats_read_the_real_files_voxel_for_voxel() {
         let bytes = std::fs::read(&raw_path).unwrap();
         let [nx, ny, nz] = info.dims;
         let expected: Vec<f32> = match info.voxel {
-            volphot::volume::VoxelType::U8 => bytes.iter().map(|&b| b as f32).collect(),
+            volphot::VoxelType::U8 => bytes.iter().map(|&b| b as f32).collect(),
             _ => bytes
                 .chunks_exact(2)
                 .map(|c| i16::from_le_bytes([c[0], c[1]]) as f32)
@@ -171,7 +171,7 @@ fn header_formats_read_the_real_files_voxel_for_voxel() {
             ),
         )
         .unwrap();
-        for loaded in [nrrd::read(&nhdr).unwrap(), metaimage::read(&mhd).unwrap()] {
+        for loaded in [read_nrrd(&nhdr).unwrap(), read_metaimage(&mhd).unwrap()] {
             assert_eq!(loaded.dims, info.dims, "{name} {}", loaded.format);
             assert_eq!(loaded.spacing, Some(info.spacing), "{name}");
             assert_eq!(loaded.data_path, raw_path, "{name}");
@@ -180,7 +180,7 @@ fn header_formats_read_the_real_files_voxel_for_voxel() {
 
         // Attached gzip NRRD and compressed / attached MetaImage copies round-trip exactly.
         let gz = tmp.path().join(format!("{name}.nrrd"));
-        nrrd::write(
+        write_nrrd(
             &gz,
             info.dims,
             &expected,
@@ -191,13 +191,13 @@ fn header_formats_read_the_real_files_voxel_for_voxel() {
         )
         .unwrap();
         let mha = tmp.path().join(format!("{name}.mha"));
-        metaimage::write(&mha, info.dims, &expected, info.voxel, info.spacing, false).unwrap();
+        write_metaimage(&mha, info.dims, &expected, info.voxel, info.spacing, false).unwrap();
         let zraw = tmp.path().join(format!("{name}-z.mhd"));
-        metaimage::write(&zraw, info.dims, &expected, info.voxel, info.spacing, true).unwrap();
+        write_metaimage(&zraw, info.dims, &expected, info.voxel, info.spacing, true).unwrap();
         for loaded in [
-            nrrd::read(&gz).unwrap(),
-            metaimage::read(&mha).unwrap(),
-            metaimage::read(&zraw).unwrap(),
+            read_nrrd(&gz).unwrap(),
+            read_metaimage(&mha).unwrap(),
+            read_metaimage(&zraw).unwrap(),
         ] {
             assert!(
                 loaded.values == expected,

@@ -1,8 +1,15 @@
-//! Command-line interface (clap derive).
+//! Command-line interface (clap derive). The clap types stay here: each verb converts its
+//! low-level arguments once into the validated options the rest of the program uses
+//! (ripgrep's low/high args).
 
 use std::path::PathBuf;
 
+use anyhow::Result;
 use clap::{Args, Parser, Subcommand, ValueEnum};
+
+use crate::backend::{Backend, Local, Slurm, SlurmOptions};
+use crate::plan::Quality;
+use crate::render::CellFilter;
 
 /// Parameter studies of volume photon mapping: render TOML grids of scenes and report what
 /// changed and by how much.
@@ -13,15 +20,17 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
     override_usage = "sweep [OPTIONS] <EXPERIMENT.toml>   (same as `sweep run`)\n       sweep <COMMAND>",
     after_help = "Examples:\n  sweep experiments/artifacts.toml          run a study (same as `sweep run …`)\n  sweep render experiments/scenes/foot.toml -o out/\n  sweep datasets"
 )]
-pub struct Cli {
+pub(crate) struct Cli {
     /// Subcommand; without one, `sweep FILE.toml` runs the experiment.
     #[command(subcommand)]
-    pub command: Command,
+    pub(crate) command: Command,
 }
 
 /// `sweep FILE.toml …` means `sweep run FILE.toml …`: inserts `run` when the first
 /// positional argument is not a subcommand.
-pub fn with_default_subcommand(mut args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+pub(crate) fn with_default_subcommand(
+    mut args: Vec<std::ffi::OsString>,
+) -> Vec<std::ffi::OsString> {
     use clap::CommandFactory;
     let command = Cli::command();
     let names: Vec<String> = command
@@ -50,7 +59,7 @@ pub fn with_default_subcommand(mut args: Vec<std::ffi::OsString>) -> Vec<std::ff
 
 /// The verbs.
 #[derive(Debug, Subcommand)]
-pub enum Command {
+pub(crate) enum Command {
     /// List the registered datasets and where they were found on the search path.
     #[command(
         after_help = "Example:\n  sweep datasets --verify\n\nSearch path: $VOLPHOT_DATA (colon-separated), ./data, ../shared/data."
@@ -84,15 +93,15 @@ pub enum Command {
 
 /// `sweep datasets`.
 #[derive(Debug, Args)]
-pub struct DatasetsArgs {
+pub(crate) struct DatasetsArgs {
     /// Verify each file's sha256 (cached per file).
     #[arg(long)]
-    pub verify: bool,
+    pub(crate) verify: bool,
 }
 
 /// Renderer choice on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum IntegratorChoice {
+pub(crate) enum IntegratorChoice {
     /// Volume photon mapping with ray marching.
     Photon,
     /// The unbiased reference path tracer.
@@ -101,34 +110,34 @@ pub enum IntegratorChoice {
 
 /// `sweep render`.
 #[derive(Debug, Args)]
-pub struct RenderArgs {
+pub(crate) struct RenderArgs {
     /// Scene file (TOML).
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Output folder.
     #[arg(short, long, default_value = "out")]
-    pub output: PathBuf,
+    pub(crate) output: PathBuf,
     /// Worker threads (default: all cores).
     #[arg(long)]
-    pub threads: Option<usize>,
+    pub(crate) threads: Option<usize>,
     /// Random seed (overrides the scene).
     #[arg(long)]
-    pub seed: Option<u64>,
+    pub(crate) seed: Option<u64>,
     /// Samples per pixel (eye rays for `photon`, paths for `reference`).
     #[arg(long)]
-    pub spp: Option<u32>,
+    pub(crate) spp: Option<u32>,
     /// Renderer (overrides the scene's `integrator.method`).
     #[arg(long, value_enum)]
-    pub integrator: Option<IntegratorChoice>,
+    pub(crate) integrator: Option<IntegratorChoice>,
     /// Image size `WIDTHxHEIGHT` (overrides the scene's camera resolution).
     #[arg(long, value_parser = parse_resolution)]
-    pub resolution: Option<[u32; 2]>,
+    pub(crate) resolution: Option<[u32; 2]>,
     /// Hide the progress bar.
     #[arg(long, short)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
 }
 
 /// Parses `512x512`.
-pub fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
+pub(crate) fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("`{s}`: expected WIDTHxHEIGHT, e.g. 512x512"))?;
@@ -142,32 +151,20 @@ pub fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
     Ok([parse(w)?, parse(h)?])
 }
 
-/// Quality presets that scale resolution and photon counts without editing the file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
-pub enum Quality {
-    /// A minute-scale look.
-    Quick,
-    /// The experiment file's own settings.
-    #[default]
-    Default,
-    /// Thesis resolution (512²) and the full grid.
-    Paper,
-}
-
 /// Quality flags shared by `plan` and `run`.
 #[derive(Debug, Clone, Args)]
-pub struct QualityArgs {
+pub(crate) struct QualityArgs {
     /// Minute-scale preview: lower resolution and fewer photons.
     #[arg(long, conflicts_with = "paper")]
-    pub quick: bool,
+    pub(crate) quick: bool,
     /// Thesis resolution (512×512) and the paper grid.
     #[arg(long)]
-    pub paper: bool,
+    pub(crate) paper: bool,
 }
 
 impl QualityArgs {
     /// The selected preset.
-    pub fn quality(&self) -> Quality {
+    pub(crate) fn quality(&self) -> Quality {
         if self.quick {
             Quality::Quick
         } else if self.paper {
@@ -180,19 +177,19 @@ impl QualityArgs {
 
 /// `sweep plan`.
 #[derive(Debug, Args)]
-pub struct PlanArgs {
+pub(crate) struct PlanArgs {
     /// Experiment file (TOML).
-    pub experiment: PathBuf,
+    pub(crate) experiment: PathBuf,
     #[command(flatten)]
-    pub quality: QualityArgs,
+    pub(crate) quality: QualityArgs,
     /// Also print the sbatch lines a Slurm run would submit.
     #[arg(long)]
-    pub slurm: bool,
+    pub(crate) slurm: bool,
 }
 
 /// Where cells are rendered.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
-pub enum Backend {
+pub(crate) enum BackendChoice {
     /// On this machine.
     #[default]
     Local,
@@ -202,105 +199,164 @@ pub enum Backend {
 
 /// Slurm options of `sweep run --backend slurm`.
 #[derive(Debug, Clone, Args, Default)]
-pub struct SlurmArgs {
+pub(crate) struct SlurmArgs {
     /// Partition (`sbatch --partition`).
     #[arg(long)]
-    pub partition: Option<String>,
+    pub(crate) partition: Option<String>,
     /// Time limit per task (`sbatch --time`), e.g. 00:30:00.
     #[arg(long)]
-    pub time: Option<String>,
+    pub(crate) time: Option<String>,
     /// Memory per task (`sbatch --mem`), e.g. 4G.
     #[arg(long)]
-    pub mem: Option<String>,
+    pub(crate) mem: Option<String>,
     /// CPUs per task (`sbatch --cpus-per-task`).
     #[arg(long)]
-    pub cpus_per_task: Option<u32>,
+    pub(crate) cpus_per_task: Option<u32>,
     /// At most this many array tasks at once (`--array=0-N%K`).
     #[arg(long)]
-    pub max_concurrent: Option<u32>,
+    pub(crate) max_concurrent: Option<u32>,
     /// Extra argument passed to every sbatch call (repeatable).
     #[arg(long = "sbatch-arg", allow_hyphen_values = true)]
-    pub sbatch_args: Vec<String>,
+    pub(crate) sbatch_args: Vec<String>,
     /// Cells per array task (default: grouped by shared photon map, and so that the array
     /// fits the cluster's MaxArraySize).
     #[arg(long)]
-    pub cells_per_task: Option<usize>,
+    pub(crate) cells_per_task: Option<usize>,
     /// Print the sbatch lines and write the scripts without submitting.
     #[arg(long)]
-    pub dry_run: bool,
+    pub(crate) dry_run: bool,
     /// Block with a progress bar until the collect job has finished.
     #[arg(long)]
-    pub wait: bool,
+    pub(crate) wait: bool,
 }
 
 /// `sweep run` (also `sweep FILE.toml`).
 #[derive(Debug, Clone, Args)]
-pub struct RunArgs {
+pub(crate) struct RunArgs {
     /// Experiment file (TOML).
-    pub experiment: PathBuf,
+    pub(crate) experiment: PathBuf,
     #[command(flatten)]
-    pub quality: QualityArgs,
+    pub(crate) quality: QualityArgs,
     /// Output folder (default: reports/<experiment name>/).
     #[arg(short, long)]
-    pub output: Option<PathBuf>,
+    pub(crate) output: Option<PathBuf>,
     /// Render only these cells, e.g. `3,7-9` (for outside schedulers).
     #[arg(long, conflicts_with = "shard")]
-    pub cells: Option<String>,
+    pub(crate) cells: Option<String>,
     /// Render only shard i of n (0-based), e.g. `2/8`.
     #[arg(long)]
-    pub shard: Option<String>,
+    pub(crate) shard: Option<String>,
     /// Cells rendered at once (each uses all threads; default 1).
     #[arg(long, default_value_t = 1)]
-    pub jobs: usize,
+    pub(crate) jobs: usize,
     /// Worker threads (default: all cores).
     #[arg(long)]
-    pub threads: Option<usize>,
+    pub(crate) threads: Option<usize>,
     /// Accept a grid larger than the experiment's `max_cells` limit.
     #[arg(long, short)]
-    pub yes: bool,
+    pub(crate) yes: bool,
     /// Hide progress bars.
     #[arg(long, short)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
     /// Skip building the report after rendering (outside schedulers collect later).
     #[arg(long)]
-    pub no_report: bool,
+    pub(crate) no_report: bool,
     /// Where cells are rendered.
-    #[arg(long, value_enum, default_value_t = Backend::Local)]
-    pub backend: Backend,
+    #[arg(long, value_enum, default_value_t = BackendChoice::Local)]
+    pub(crate) backend: BackendChoice,
     #[command(flatten)]
-    pub slurm: SlurmArgs,
+    pub(crate) slurm: SlurmArgs,
 }
 
 /// `sweep report`.
 #[derive(Debug, Args)]
-pub struct ReportArgs {
+pub(crate) struct ReportArgs {
     /// Output folder of a run.
-    pub dir: PathBuf,
+    pub(crate) dir: PathBuf,
 }
 
 /// `sweep status`.
 #[derive(Debug, Args)]
-pub struct StatusArgs {
+pub(crate) struct StatusArgs {
     /// Output folder of a run.
-    pub dir: PathBuf,
+    pub(crate) dir: PathBuf,
 }
 
 /// `sweep bench`.
 #[derive(Debug, Args)]
-pub struct BenchArgs {
+pub(crate) struct BenchArgs {
     /// A small frame on the foot phantom instead of the real foot at 512².
     #[arg(long)]
-    pub quick: bool,
+    pub(crate) quick: bool,
     /// Worker threads (default: all cores).
     #[arg(long)]
-    pub threads: Option<usize>,
+    pub(crate) threads: Option<usize>,
     /// Scene to benchmark instead of the headline frame.
     #[arg(long)]
-    pub scene: Option<PathBuf>,
+    pub(crate) scene: Option<PathBuf>,
     /// Skip the uncached run (which can take minutes).
     #[arg(long)]
-    pub cached_only: bool,
+    pub(crate) cached_only: bool,
     /// Write the measurements as JSON here.
     #[arg(long)]
-    pub json: Option<PathBuf>,
+    pub(crate) json: Option<PathBuf>,
+}
+
+/// Largest `--threads` accepted: more workers than this only add scheduling overhead.
+const MAX_THREADS: usize = 1024;
+
+/// Validates `--threads` (1 to [`MAX_THREADS`]; `None` uses every core).
+pub(crate) fn threads(value: Option<usize>) -> Result<Option<usize>> {
+    match value {
+        Some(n) if !(1..=MAX_THREADS).contains(&n) => anyhow::bail!(
+            "--threads {n}: expected a number of worker threads in 1..={MAX_THREADS} (omit it to use every core)"
+        ),
+        other => Ok(other),
+    }
+}
+
+impl SlurmArgs {
+    /// The validated Slurm options.
+    pub(crate) fn options(&self) -> SlurmOptions {
+        SlurmOptions {
+            partition: self.partition.clone(),
+            time: self.time.clone(),
+            mem: self.mem.clone(),
+            cpus_per_task: self.cpus_per_task,
+            max_concurrent: self.max_concurrent,
+            sbatch_args: self.sbatch_args.clone(),
+            cells_per_task: self.cells_per_task,
+            dry_run: self.dry_run,
+            wait: self.wait,
+        }
+    }
+}
+
+impl RunArgs {
+    /// The cells to render: `--cells` ranges, a `--shard`, or all.
+    pub(crate) fn cell_filter(&self) -> Result<CellFilter> {
+        match (&self.cells, &self.shard) {
+            (Some(c), _) => CellFilter::parse_cells(c),
+            (None, Some(s)) => CellFilter::parse_shard(s),
+            (None, None) => Ok(CellFilter::All),
+        }
+    }
+
+    /// The backend, chosen once.
+    pub(crate) fn backend(&self) -> Result<Box<dyn Backend>> {
+        anyhow::ensure!(
+            self.jobs >= 1,
+            "--jobs {}: expected at least 1 march group at a time",
+            self.jobs
+        );
+        Ok(match self.backend {
+            BackendChoice::Local => Box::new(Local {
+                jobs: self.jobs,
+                threads: threads(self.threads)?,
+            }),
+            BackendChoice::Slurm => Box::new(Slurm {
+                options: self.slurm.options(),
+            }),
+        })
+    }
 }

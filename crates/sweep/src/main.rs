@@ -3,18 +3,15 @@
 //! See `sweep --help` and the README for the experiment format.
 #![warn(missing_docs)]
 
-mod cells;
+mod analyse;
+mod backend;
 mod cli;
 mod commands;
-mod disco;
-mod experiment;
-mod figures;
-mod metrics;
-mod plots;
+mod plan;
 mod progress;
+mod render;
 mod report;
-mod runner;
-mod slurm;
+mod store;
 
 use clap::Parser;
 

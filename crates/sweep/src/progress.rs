@@ -4,7 +4,7 @@ use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 /// A multi-bar display that draws nothing when `quiet` (indicatif itself hides bars when
 /// stderr is not a terminal).
-pub fn multi(quiet: bool) -> MultiProgress {
+pub(crate) fn multi(quiet: bool) -> MultiProgress {
     if quiet {
         MultiProgress::with_draw_target(ProgressDrawTarget::hidden())
     } else {
@@ -13,7 +13,7 @@ pub fn multi(quiet: bool) -> MultiProgress {
 }
 
 /// A bar counting `len` units with a label.
-pub fn bar(multi: &MultiProgress, len: u64, label: &str, unit: &str) -> ProgressBar {
+pub(crate) fn bar(multi: &MultiProgress, len: u64, label: &str, unit: &str) -> ProgressBar {
     let bar = multi.add(ProgressBar::new(len));
     bar.set_style(
         ProgressStyle::with_template(&format!(

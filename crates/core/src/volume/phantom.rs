@@ -32,7 +32,7 @@ pub const PHANTOM_NAMES: &[&str] = &[
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PhantomParams {
-    /// One of [`PHANTOM_NAMES`].
+    /// One of `constant`, `slab`, `two-slab`, `sphere`, `engine`, `foot`, `head`, `orientation`.
     pub name: String,
     /// Voxels along x, y, z.
     #[serde(default = "default_resolution")]

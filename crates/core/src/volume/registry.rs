@@ -6,7 +6,9 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{ByteOrder, FileRequest, Normalization, Placement, RawLayout, Volume, VoxelType, load};
+use super::{
+    ByteOrder, FileRequest, Normalization, Placement, RawLayout, Volume, VoxelType, read_volume,
+};
 use crate::error::{Error, Result};
 
 /// One registered dataset.
@@ -131,7 +133,7 @@ pub const DATASETS: &[DatasetInfo] = &[
 ];
 
 /// Looks a dataset up by name.
-pub fn find(name: &str) -> Result<&'static DatasetInfo> {
+pub fn find_dataset(name: &str) -> Result<&'static DatasetInfo> {
     DATASETS.iter().find(|d| d.name == name).ok_or_else(|| {
         Error::parameter(
             "dataset",
@@ -222,9 +224,9 @@ pub fn load_dataset(
     search: &SearchPath,
     overrides: &DatasetOverrides,
 ) -> Result<Volume> {
-    let info = find(name)?;
+    let info = find_dataset(name)?;
     let path = search.resolve(info)?;
-    load(&FileRequest {
+    read_volume(&FileRequest {
         path,
         raw_layout: Some(RawLayout {
             dims: info.dims,
@@ -255,13 +257,13 @@ pub struct DatasetStatus {
 }
 
 /// Locates (and optionally verifies) every registered dataset.
-pub fn survey(search: &SearchPath, verify: bool) -> Vec<DatasetStatus> {
+pub fn survey_datasets(search: &SearchPath, verify: bool) -> Vec<DatasetStatus> {
     DATASETS
         .iter()
         .map(|info| {
             let path = search.locate(info.file);
             let verified = match (&path, verify) {
-                (Some(p), true) => crate::checksum::sha256_cached(Path::new(p))
+                (Some(p), true) => crate::util::sha256_cached(Path::new(p))
                     .ok()
                     .map(|s| s == info.sha256),
                 _ => None,
@@ -301,7 +303,7 @@ mod tests {
             err.contains("/nonexistent/a") && err.contains("VOLPHOT_DATA"),
             "{err}"
         );
-        let err = find("feet").unwrap_err().to_string();
+        let err = find_dataset("feet").unwrap_err().to_string();
         assert!(err.contains("feet") && err.contains("foot"), "{err}");
     }
 }

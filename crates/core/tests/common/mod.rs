@@ -3,8 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-use volphot::scene::{Scene, SceneParams};
-use volphot::volume::registry::SearchPath;
+use volphot::SearchPath;
+use volphot::{Scene, SceneParams};
 
 /// Builds a scene from inline TOML (phantoms only, so no data files are needed).
 pub fn scene(src: &str) -> Scene {
@@ -43,5 +43,5 @@ pub fn relative_rmse(a: &[glam::Vec3], b: &[glam::Vec3]) -> f64 {
         })
         .sum::<f64>()
         / (3.0 * n);
-    mse.sqrt() / volphot::film::mean_rgb(b)
+    mse.sqrt() / volphot::mean_rgb(b)
 }

@@ -9,10 +9,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use serde::Serialize;
-use volphot::film::Layer;
-use volphot::render::{build_photon_map, peak_memory_bytes};
-use volphot::scene::{Scene, load_params};
-use volphot::volume::registry::SearchPath;
+use volphot::{Layer, Scene, SearchPath, build_photon_map, load_params, peak_memory_bytes};
 
 use crate::cli::BenchArgs;
 
@@ -58,7 +55,7 @@ fn headline(args: &BenchArgs) -> PathBuf {
 }
 
 /// Runs the benchmark.
-pub fn run(args: &BenchArgs) -> Result<ExitCode> {
+pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
     let scene_path = headline(args);
     let (mut params, _) = load_params(&scene_path)
         .with_context(|| format!("benchmark scene {}", scene_path.display()))?;
@@ -88,7 +85,7 @@ pub fn run(args: &BenchArgs) -> Result<ExitCode> {
         let m = pool.install(|| -> Result<Measurement> {
             let start = std::time::Instant::now();
             let map = build_photon_map(&s);
-            let out = volphot::integrator::render_march(&s, &[&map], &[], &|_| {})?;
+            let out = volphot::render_march(&s, &[&map], &[], &|_| {})?;
             let total = start.elapsed().as_secs_f64();
             let film = &out.films[0];
             Ok(Measurement {
@@ -135,7 +132,7 @@ pub fn run(args: &BenchArgs) -> Result<ExitCode> {
         );
     }
     if let Some(path) = &args.json {
-        volphot::fsutil::write_atomic(path, serde_json::to_string_pretty(&results)?.as_bytes())?;
+        volphot::write_atomic(path, serde_json::to_string_pretty(&results)?.as_bytes())?;
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -3,12 +3,12 @@
 use std::process::ExitCode;
 
 use anyhow::Result;
-use volphot::volume::registry::{SearchPath, survey};
+use volphot::{SearchPath, survey_datasets};
 
 use crate::cli::DatasetsArgs;
 
 /// Prints one line per registered dataset.
-pub fn run(args: &DatasetsArgs) -> Result<ExitCode> {
+pub(crate) fn run(args: &DatasetsArgs) -> Result<ExitCode> {
     let search = SearchPath::from_env();
     println!(
         "search path: {}",
@@ -23,7 +23,7 @@ pub fn run(args: &DatasetsArgs) -> Result<ExitCode> {
         "{:<9} {:<13} {:<6} {:<9} location",
         "name", "dims", "type", "sha256"
     );
-    for status in survey(&search, args.verify) {
+    for status in survey_datasets(&search, args.verify) {
         let info = status.info;
         let dims = format!("{}x{}x{}", info.dims[0], info.dims[1], info.dims[2]);
         let check = match status.verified {

@@ -13,9 +13,10 @@ use std::process::ExitCode;
 use anyhow::Result;
 
 use crate::cli::{Cli, Command};
+pub(crate) use crate::render::thread_pool;
 
 /// Runs the chosen verb.
-pub fn dispatch(cli: Cli) -> Result<ExitCode> {
+pub(crate) fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Datasets(a) => datasets::run(&a),
         Command::Render(a) => render::run(&a),
@@ -25,14 +26,4 @@ pub fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Status(a) => status::run(&a),
         Command::Bench(a) => bench::run(&a),
     }
-}
-
-/// Builds a rayon pool with `threads` workers (all cores when `None`).
-pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = threads {
-        anyhow::ensure!(n >= 1, "--threads must be at least 1");
-        builder = builder.num_threads(n);
-    }
-    Ok(builder.build()?)
 }

@@ -3,11 +3,10 @@
 use std::process::ExitCode;
 
 use anyhow::Result;
-use volphot::settings::Method;
+use volphot::{Method, SceneParams};
 
 use crate::cli::PlanArgs;
-use crate::experiment::Experiment;
-use crate::runner::plan_with_hashes;
+use crate::plan::Experiment;
 
 /// Rough wall-clock seconds for one cell on a 2-core machine.
 ///
@@ -16,7 +15,7 @@ use crate::runner::plan_with_hashes;
 /// multiple scattering at nused = 150; both scale with the number of marching steps
 /// (1/stepsize). Reference paths cost about 40 µs per sample. Real volumes and σ vary this
 /// by a factor of a few: the estimate orders plans, it does not promise times.
-pub fn estimate_seconds(p: &volphot::scene::SceneParams) -> f64 {
+pub(crate) fn estimate_seconds(p: &SceneParams) -> f64 {
     let [w, h] = p.camera.resolution;
     let pixels = w as f64 * h as f64;
     let i = &p.integrator;
@@ -43,11 +42,11 @@ pub fn estimate_seconds(p: &volphot::scene::SceneParams) -> f64 {
 }
 
 /// Prints the plan.
-pub fn run(args: &PlanArgs) -> Result<ExitCode> {
+pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
     let start = std::time::Instant::now();
     let exp = Experiment::load(&args.experiment)?;
     let quality = args.quality.quality();
-    let (cells, hashes) = plan_with_hashes(&exp, quality)?;
+    let (cells, hashes) = exp.plan_with_hashes(quality)?;
     let plan_seconds = start.elapsed().as_secs_f64();
     println!(
         "{} ({:?} quality): {} cells",
@@ -62,7 +61,7 @@ pub fn run(args: &PlanArgs) -> Result<ExitCode> {
         let est = estimate_seconds(&c.params);
         // Cells sharing a march cost roughly one march plus their gathers.
         marches.insert(if exp.share {
-            crate::runner::march_key(&c.params)
+            volphot::march_key(&c.params)
         } else {
             hash.clone()
         });
@@ -83,12 +82,12 @@ pub fn run(args: &PlanArgs) -> Result<ExitCode> {
         );
     }
     if args.slurm {
-        let out = crate::runner::default_output(&exp, quality);
-        let script = crate::slurm::plan_submission(
+        let out = super::run::default_output(&exp, quality);
+        let script = crate::backend::plan_submission(
             &exp,
             &cells,
             &out,
-            &crate::cli::SlurmArgs::default(),
+            &crate::backend::SlurmOptions::default(),
             quality,
             None,
         )?;

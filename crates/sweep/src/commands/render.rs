@@ -4,15 +4,12 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use volphot::film::{Layer, write_png};
-use volphot::scene::{Scene, load_params};
-use volphot::settings::Method;
-use volphot::volume::registry::SearchPath;
+use volphot::{Layer, Method, Scene, SearchPath, load_params, locate_error, write_png};
 
 use crate::cli::{IntegratorChoice, RenderArgs};
 
 /// Renders the scene and writes its files into the output folder.
-pub fn run(args: &RenderArgs) -> Result<ExitCode> {
+pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode> {
     let (mut params, _) = load_params(&args.scene)?;
     if let Some(seed) = args.seed {
         params.integrator.seed = seed;
@@ -36,7 +33,7 @@ pub fn run(args: &RenderArgs) -> Result<ExitCode> {
     let base = args.scene.parent().unwrap_or(Path::new("."));
     let output = pool.install(|| -> Result<_> {
         let scene = Scene::from_params(&params, base, &SearchPath::from_env()).map_err(|e| {
-            volphot::scene::locate_error(
+            locate_error(
                 e,
                 &std::fs::read_to_string(&args.scene).unwrap_or_default(),
                 &args.scene,
@@ -44,7 +41,7 @@ pub fn run(args: &RenderArgs) -> Result<ExitCode> {
         })?;
         let multi = crate::progress::multi(args.quiet);
         let bar = crate::progress::bar(&multi, scene.camera().height() as u64, "render", "rows");
-        let out = volphot::render::render(&scene, &|rows| bar.set_position(rows))?;
+        let out = volphot::render(&scene, &|rows| bar.set_position(rows))?;
         bar.finish_and_clear();
         Ok(out)
     })?;
@@ -76,7 +73,7 @@ pub fn run(args: &RenderArgs) -> Result<ExitCode> {
         exposure,
     )?;
     let json = serde_json::to_string_pretty(&output.record)?;
-    volphot::fsutil::write_atomic(&args.output.join(format!("{stem}.json")), json.as_bytes())?;
+    volphot::write_atomic(&args.output.join(format!("{stem}.json")), json.as_bytes())?;
     let t = &output.record.timings;
     eprintln!(
         "{stem}: {w}×{h} in {:.2} s (photons {:.2} s, tree {:.2} s, render {:.2} s); mean radiance single {:.4}, multiple {:.4} → {}",

@@ -4,14 +4,14 @@ use std::process::ExitCode;
 
 use anyhow::Result;
 
-use crate::cells::OutputDir;
 use crate::cli::ReportArgs;
+use crate::store::{OutputDir, lock_folder};
 
 /// Rebuilds the report without rendering.
-pub fn run(args: &ReportArgs) -> Result<ExitCode> {
+pub(crate) fn run(args: &ReportArgs) -> Result<ExitCode> {
     let out = OutputDir::new(&args.dir);
     // Hold a shared lock: a full run writing this folder would conflict.
-    let _lock = crate::runner::lock_folder(&out, false)?;
+    let _lock = lock_folder(&out, false)?;
     let path = crate::report::build_report(&out)?;
     eprintln!("report: {}", path.display());
     Ok(ExitCode::SUCCESS)

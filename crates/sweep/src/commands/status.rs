@@ -1,16 +1,15 @@
 //! `sweep status`: done / running / failed / pending cells of an output folder.
 
-use std::fs::File;
 use std::process::ExitCode;
 
 use anyhow::Result;
 
-use crate::cells::{OutputDir, is_done};
+use crate::backend::{compress_ranges, print_jobs};
 use crate::cli::StatusArgs;
-use crate::runner::read_plan;
+use crate::store::{OutputDir, cell_is_locked, is_done, read_plan};
 
 /// Cell states as seen in the output folder (and by Slurm when a job was submitted).
-pub fn run(args: &StatusArgs) -> Result<ExitCode> {
+pub(crate) fn run(args: &StatusArgs) -> Result<ExitCode> {
     let out = OutputDir::new(&args.dir);
     let plan = read_plan(&out)?;
     let (mut done, mut running, mut failed, mut pending) =
@@ -20,13 +19,7 @@ pub fn run(args: &StatusArgs) -> Result<ExitCode> {
             done.push(c.index);
             continue;
         }
-        let lock_path = out.root().join("cells").join(format!(".{}.lock", c.hash));
-        let busy = File::options()
-            .write(true)
-            .open(&lock_path)
-            .ok()
-            .is_some_and(|f| f.try_lock().is_err());
-        if busy {
+        if cell_is_locked(&out, &c.hash) {
             running.push(c.index);
         } else if out.failure(&c.hash).is_file() {
             failed.push(c.index);
@@ -34,7 +27,7 @@ pub fn run(args: &StatusArgs) -> Result<ExitCode> {
             pending.push(c.index);
         }
     }
-    let list = |v: &[usize]| crate::slurm::compress_ranges(v);
+    let list = |v: &[usize]| compress_ranges(v);
     println!(
         "{} ({}): {} cells",
         plan.experiment,
@@ -49,6 +42,6 @@ pub fn run(args: &StatusArgs) -> Result<ExitCode> {
         let c = &plan.cells[*index];
         println!("  cell {index}: {}", out.failure(&c.hash).display());
     }
-    crate::slurm::print_jobs(&out);
+    print_jobs(&out);
     Ok(ExitCode::SUCCESS)
 }

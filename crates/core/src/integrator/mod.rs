@@ -1,0 +1,36 @@
+//! Integrators: the thesis's ray-marching integrator (§6, §7.1.3) with its optional caches,
+//! and the unbiased reference path tracer it is measured against.
+//!
+//! Each eye ray is cut into segments of `stepsize`; one sample per segment at a random
+//! offset that is the same for every segment of the ray (Pauly et al. 2000). At each sample
+//! with σt > 0 (samples with σs = 0 are skipped, §7.1.3):
+//!
+//! * single scattering from every light: `σs · p · I·falloff/r² · T(x → light)`;
+//! * multiple scattering from the photon map: `σs(x) · Σ p ΔΦ_p / (σt(x_p) · V_m)` with
+//!   `V_m` the medium's share of the gather sphere (eq. 11 in fluence form, normalised by
+//!   where photons can be; the thesis's own form is selectable, see [`Estimate`]);
+//! * emission: `Le · d(x)`;
+//!
+//! each weighted by the segment's quadrature and the running eye transmittance, which is
+//! updated multiplicatively (eq. 3). Marching stops when the eye transmittance drops below
+//! `termination`; the radiance lost is at most that fraction of what lies behind. Marched
+//! shadow rays stop at the same threshold (the light they could still carry is below that
+//! fraction) and count as blocked.
+//!
+//! All three layers come from ONE pass, so "single only" and "single + multiple" share
+//! every random decision.
+//!
+//! Acceleration that keeps results honest: empty-space skipping over majorant bricks, an
+//! optional per-light transmittance cache (`shadow_cache`) and an optional
+//! multiple-scattering cache (`ms_cache`, view-independent for isotropic phase). Both
+//! caches are off by default; their error against the uncached path is measured in tests.
+
+mod cache;
+mod gather;
+mod march;
+mod reference;
+
+pub use cache::CACHE_TAU_MAX;
+pub use gather::MsVariant;
+pub use march::{MarchOutput, MarchStats, render_march};
+pub use reference::{MAX_VERTICES, ReferenceAccumulator, render_reference};

@@ -1,0 +1,9 @@
+//! Rays and boxes, deterministic random streams, direction sampling.
+
+mod geometry;
+mod rng;
+mod sampling;
+
+pub use geometry::{Aabb, Frame, Ray};
+pub use rng::{Domain, Rng, mix64};
+pub use sampling::{INV_4PI, uniform_sphere};

@@ -1,0 +1,324 @@
+//! The participating medium (thesis §2.3, §7.2.2–7.2.4; structure after pbrt-v4's
+//! `media.h`): transferred density, σ mapping, emission and phase function, answering point
+//! queries (`sigma_t`, `albedo`, `emission`) and yielding majorant segments along a ray.
+//!
+//! * [`transfer`] and [`sigma`] turn normalised density into σa, σs (the choices under study);
+//! * [`majorant`] bounds σt brick by brick and walks a ray's majorant segments;
+//! * [`free_path`] holds every tracker on one collision loop (delta, ratio, march, thesis);
+//! * [`march`] is the thesis's ray marching and marched optical depth;
+//! * [`phase`] is the phase function.
+
+mod free_path;
+mod majorant;
+mod march;
+mod phase;
+mod sigma;
+mod transfer;
+
+use glam::Vec3;
+
+pub use free_path::{FreePath, sample_interaction_march, sample_interaction_thesis};
+pub use majorant::{MajorantGrid, MajorantSegment, MajorantSegments};
+pub use phase::Phase;
+pub use sigma::{
+    Coefficients, MappingKind, SigmaMapping, SigmaParams, SigmaReport, Split, THESIS_ALBEDO,
+    THESIS_T,
+};
+pub use transfer::{Pgm, TransferFunction, TransferKind, TransferParams, parse_pgm, write_pgm};
+
+use crate::error::{Error, Result};
+use crate::math::{Aabb, Ray};
+use crate::volume::{Grid, Reconstruction, Volume};
+
+/// Default majorant brick edge in voxels (a 256³ volume gets 64³ bricks). Small bricks skip
+/// more empty space inside bone-only transfer functions; measured on the foot preset, 4
+/// voxels render about 13 % faster than 8 and 30 % faster than 16.
+pub const DEFAULT_BRICK_SIZE: usize = 4;
+
+/// Everything besides the volume that defines a medium.
+#[derive(Debug, Clone)]
+pub struct MediumSettings {
+    /// Applied to every voxel before σ scaling.
+    pub transfer: TransferFunction,
+    /// How density maps to σa, σs.
+    pub mapping: SigmaMapping,
+    /// Emission base value `Le` (radiance per unit length per unit density, pbrt-v1 `Lve`).
+    pub emission: Vec3,
+    /// Phase function.
+    pub phase: Phase,
+    /// Reconstruction between voxels.
+    pub reconstruction: Reconstruction,
+    /// Majorant brick edge in voxels.
+    pub brick_size: usize,
+}
+
+impl Default for MediumSettings {
+    fn default() -> Self {
+        MediumSettings {
+            transfer: TransferFunction::Identity,
+            mapping: SigmaMapping::Thesis {
+                t: sigma::THESIS_T,
+                split: sigma::Split::Albedo(sigma::THESIS_ALBEDO),
+            },
+            emission: Vec3::ZERO,
+            phase: Phase::ISOTROPIC,
+            reconstruction: Reconstruction::Trilinear,
+            brick_size: DEFAULT_BRICK_SIZE,
+        }
+    }
+}
+
+/// 32 points spread evenly through the unit ball (equal-volume shells, golden-angle
+/// spirals), the same for every query so estimates stay deterministic.
+fn ball_points() -> &'static [Vec3] {
+    static POINTS: std::sync::OnceLock<Vec<Vec3>> = std::sync::OnceLock::new();
+    POINTS.get_or_init(|| {
+        let n = 32;
+        let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+        (0..n)
+            .map(|i| {
+                let f = (i as f32 + 0.5) / n as f32;
+                let radius = f.cbrt();
+                let z = 1.0 - 2.0 * f;
+                let ring = (1.0 - z * z).max(0.0).sqrt();
+                let phi = golden * i as f32;
+                Vec3::new(ring * phi.cos(), ring * phi.sin(), z) * radius
+            })
+            .collect()
+    })
+}
+
+/// A renderable medium built from a volume.
+#[derive(Debug, Clone)]
+pub struct Medium {
+    density: Grid,
+    reconstruction: Reconstruction,
+    sigma_t_base: f32,
+    albedo: Vec3,
+    mean_albedo: f32,
+    emission: Vec3,
+    phase: Phase,
+    majorants: MajorantGrid,
+    report: SigmaReport,
+    mapping: SigmaMapping,
+    transfer: String,
+}
+
+impl Medium {
+    /// Applies the transfer function to every voxel, resolves the σ mapping on the result and
+    /// builds the majorant bricks.
+    pub fn create(volume: &Volume, settings: &MediumSettings) -> Result<Self> {
+        if settings.brick_size == 0 || settings.brick_size > 256 {
+            return Err(Error::parameter(
+                "brick_size",
+                settings.brick_size,
+                "a brick edge in [1, 256] voxels",
+            ));
+        }
+        crate::error::check_rgb_non_negative("emission", settings.emission.to_array())?;
+        let values: Vec<f32> = volume
+            .grid()
+            .values()
+            .iter()
+            .map(|&d| settings.transfer.apply(d))
+            .collect();
+        let density = volume.grid().with_values(values);
+        let d_min = density.min_positive().unwrap_or(0.0);
+        let (_, d_max) = density.min_max();
+        let largest_extent = density.bounds().largest_extent();
+        let coefficients = settings
+            .mapping
+            .resolve(d_min, d_max, largest_extent)
+            .map_err(|e| e.within("sigma"))?;
+        let report = SigmaReport::new(&coefficients, d_min, d_max, largest_extent);
+        let majorants =
+            MajorantGrid::build(&density, coefficients.sigma_t_base, settings.brick_size);
+        let albedo = coefficients.albedo;
+        Ok(Medium {
+            density,
+            reconstruction: settings.reconstruction,
+            sigma_t_base: coefficients.sigma_t_base,
+            albedo,
+            mean_albedo: (albedo.x + albedo.y + albedo.z) / 3.0,
+            emission: settings.emission,
+            phase: settings.phase,
+            majorants,
+            report,
+            mapping: settings.mapping.clone(),
+            transfer: settings.transfer.describe(),
+        })
+    }
+
+    /// The world box (no medium outside).
+    pub fn bounds(&self) -> Aabb {
+        self.density.bounds()
+    }
+
+    /// The transferred density grid.
+    pub fn density_grid(&self) -> &Grid {
+        &self.density
+    }
+
+    /// Transferred density at `p`.
+    #[inline]
+    pub fn density(&self, p: Vec3) -> f32 {
+        self.density.sample(p, self.reconstruction)
+    }
+
+    /// Extinction σt at `p` (grey).
+    #[inline]
+    pub fn sigma_t(&self, p: Vec3) -> f32 {
+        self.sigma_t_base * self.density(p)
+    }
+
+    /// σt at a point of a ray's clipped interval (inside the box up to rounding), without
+    /// the outside test: the hot path of marching.
+    #[inline]
+    pub(crate) fn sigma_t_in_box(&self, p: Vec3) -> f32 {
+        let d = match self.reconstruction {
+            Reconstruction::Trilinear => self.density.trilinear_clamped(p),
+            Reconstruction::Nearest => self.density.nearest(p),
+        };
+        self.sigma_t_base * d
+    }
+
+    /// σt per unit transferred density.
+    pub fn sigma_t_base(&self) -> f32 {
+        self.sigma_t_base
+    }
+
+    /// Single-scattering albedo σs/σt per channel (constant over the medium).
+    pub fn albedo(&self) -> Vec3 {
+        self.albedo
+    }
+
+    /// Mean of the albedo's channels: the Russian-roulette survival probability (§5.1).
+    pub fn mean_albedo(&self) -> f32 {
+        self.mean_albedo
+    }
+
+    /// Scattering σs at `p`.
+    #[inline]
+    pub fn sigma_s(&self, p: Vec3) -> Vec3 {
+        self.albedo * self.sigma_t(p)
+    }
+
+    /// Emission source per unit length at `p`: `Le_base · d(p)`.
+    #[inline]
+    pub fn emission(&self, p: Vec3) -> Vec3 {
+        self.emission * self.density(p)
+    }
+
+    /// Whether the medium emits at all.
+    pub fn has_emission(&self) -> bool {
+        self.emission != Vec3::ZERO
+    }
+
+    /// The phase function.
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// The fraction of the sphere of radius `r` around `center` that holds medium
+    /// (σt > 0), estimated at 32 fixed, evenly spread points plus the centre. Used to
+    /// normalise photon-map estimates by the volume photons can actually occupy.
+    pub fn occupancy(&self, center: Vec3, r: f32) -> f32 {
+        let points = ball_points();
+        let mut inside = usize::from(self.density(center) > 0.0);
+        for u in points {
+            if self.density(center + *u * r) > 0.0 {
+                inside += 1;
+            }
+        }
+        inside as f32 / (points.len() + 1) as f32
+    }
+
+    /// The majorant bricks.
+    pub fn majorants(&self) -> &MajorantGrid {
+        &self.majorants
+    }
+
+    /// The σ mapping's outcome on this volume.
+    pub fn report(&self) -> &SigmaReport {
+        &self.report
+    }
+
+    /// The σ mapping.
+    pub fn mapping(&self) -> &SigmaMapping {
+        &self.mapping
+    }
+
+    /// The transfer function, described.
+    pub fn transfer_description(&self) -> &str {
+        &self.transfer
+    }
+
+    /// The ray's parametric interval inside the volume box.
+    pub fn clip(&self, ray: &Ray) -> Option<(f32, f32)> {
+        self.bounds().intersect(ray)
+    }
+
+    /// Majorant segments of `ray` over `[t_min, t_max]`.
+    pub fn segments(&self, ray: &Ray, t_min: f32, t_max: f32) -> MajorantSegments<'_> {
+        self.majorants.segments(ray, t_min, t_max)
+    }
+}
+
+/// Media for unit tests: procedural phantoms with the thesis's σ mapping.
+#[cfg(test)]
+pub(crate) mod test_media {
+    use super::{Medium, MediumSettings, SigmaMapping, Split};
+    use crate::volume::{PhantomParams, Volume};
+
+    /// The phantom `name` at `res`³ voxels (optional densities), σt(d_min) = `t`, albedo 0.8.
+    pub(crate) fn phantom_medium(
+        name: &str,
+        res: usize,
+        densities: Option<[f32; 2]>,
+        t: f32,
+    ) -> Medium {
+        let mut p = PhantomParams::named(name, res);
+        p.densities = densities;
+        let v = Volume::from_phantom(&p).unwrap();
+        Medium::create(
+            &v,
+            &MediumSettings {
+                mapping: SigmaMapping::Thesis {
+                    t,
+                    split: Split::Albedo(0.8),
+                },
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::test_media::phantom_medium as medium;
+    use crate::math::Ray;
+
+    #[test]
+    fn segments_cover_the_interval_in_order() {
+        let m = medium("sphere", 32, None, 10.0);
+        let ray = Ray::new(Vec3::new(-0.5, 0.31, 0.47), Vec3::new(1.0, 0.23, 0.11));
+        let (t0, t1) = m.clip(&ray).unwrap();
+        let segs: Vec<_> = m.segments(&ray, t0, t1).collect();
+        assert!(!segs.is_empty());
+        assert_eq!(segs[0].t_min, t0);
+        assert!((segs.last().unwrap().t_max - t1).abs() < 1e-5);
+        for w in segs.windows(2) {
+            assert_eq!(w[0].t_max, w[1].t_min);
+        }
+        // Majorants bound σt at many points along the ray.
+        for s in &segs {
+            for k in 0..16 {
+                let t = s.t_min + (s.t_max - s.t_min) * (k as f32 + 0.5) / 16.0;
+                assert!(m.sigma_t(ray.at(t)) <= s.sigma_maj * (1.0 + 1e-5));
+            }
+        }
+    }
+}

@@ -1,0 +1,388 @@
+//! The volume photon map and its radiance estimate (thesis §5.2, eq. 11).
+//!
+//! `L(x, ω) ≈ Σ_{p ≤ n} p(x, ω_p, ω) · ΔΦ_p / (4/3 · π · r³)` over the `n = nused` nearest
+//! photons within `maxdist`. `r` is the radius of the sphere the estimate actually covers:
+//! the distance to the `n`-th photon when `n` were found, otherwise `maxdist` (the whole
+//! searched sphere holds fewer than `n` photons, so its volume is the honest denominator).
+//!
+//! One k-NN query can serve several `(nused, maxdist)` pairs at once ([`GatherVariant`]):
+//! the neighbours come back sorted, so every smaller `nused` or radius is a prefix.
+//!
+//! ```
+//! use glam::Vec3;
+//! use volphot::{Photon, PhotonStats};
+//! use volphot::{PhotonMap, GatherVariant, Gathered};
+//! use volphot::Phase;
+//! let photons: Vec<Photon> = (0..1000)
+//!     .map(|i| Photon { position: Vec3::new((i % 10) as f32, ((i / 10) % 10) as f32, (i / 100) as f32) * 0.1,
+//!                       direction: Vec3::Z, power: Vec3::splat(0.001), sigma_t: 1.0 })
+//!     .collect();
+//! let map = PhotonMap::new(photons, PhotonStats::default());
+//! let v = [GatherVariant { nused: 8, maxdist: 0.5, gathered: Gathered::Flux }];
+//! let mut out = [Vec3::ZERO];
+//! map.estimates(Vec3::splat(0.45), Vec3::X, Phase::ISOTROPIC, &v, &mut Default::default(), &mut out);
+//! assert!(out[0].x > 0.0);
+//! ```
+
+use std::num::NonZeroUsize;
+use std::time::Instant;
+
+use glam::Vec3;
+use kiddo::ImmutableKdTree;
+use kiddo::dist::SquaredEuclidean;
+
+use super::{Photon, PhotonStats};
+use crate::medium::Phase;
+
+/// What a gather sums over its photons.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Gathered {
+    /// `Σ p·ΔΦ / V`: interaction-weighted flux density (eq. 11).
+    Flux,
+    /// `Σ p·ΔΦ/σt(x_p) / V`: in-scattered fluence density, continuous across density edges.
+    /// Photons stored where σt = 0 (possible only with the thesis's free-path rule) add 0.
+    Fluence,
+}
+
+/// One `(nused, maxdist, what)` estimate served by a shared gather.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GatherVariant {
+    /// Photons used per estimate.
+    pub nused: u32,
+    /// Largest gather radius.
+    pub maxdist: f32,
+    /// What is summed.
+    pub gathered: Gathered,
+}
+
+/// Reusable buffers for [`PhotonMap::estimates`], one per worker, so the hot loop does not
+/// allocate.
+#[derive(Debug, Default, Clone)]
+pub struct GatherScratch {
+    hits: Vec<(f32, u32)>,
+    flux: Vec<Vec3>,
+    fluence: Vec<Vec3>,
+    radii: Vec<f32>,
+}
+
+impl GatherScratch {
+    /// The radius each variant of the last [`PhotonMap::estimates`] call used (0 when it
+    /// found no photons).
+    pub fn radii(&self) -> &[f32] {
+        &self.radii
+    }
+}
+
+/// A kd-tree over stored photons.
+pub struct PhotonMap {
+    tree: ImmutableKdTree<f32, 3>,
+    photons: Vec<Photon>,
+    stats: PhotonStats,
+    build_seconds: f64,
+}
+
+impl std::fmt::Debug for PhotonMap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PhotonMap")
+            .field("photons", &self.photons.len())
+            .field("stats", &self.stats)
+            .finish()
+    }
+}
+
+impl PhotonMap {
+    /// Builds the kd-tree (kiddo's immutable tree) over the photons' positions.
+    pub fn new(photons: Vec<Photon>, stats: PhotonStats) -> Self {
+        let start = Instant::now();
+        let positions: Vec<[f32; 3]> = photons.iter().map(|p| p.position.to_array()).collect();
+        let tree = ImmutableKdTree::new_from_slice(&positions)
+            .expect("photon count fits u32 (capped by volume_photons ≤ 1e8)");
+        PhotonMap {
+            tree,
+            photons,
+            stats,
+            build_seconds: start.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// Stored photons.
+    pub fn photons(&self) -> &[Photon] {
+        &self.photons
+    }
+
+    /// Number of stored photons.
+    pub fn len(&self) -> usize {
+        self.photons.len()
+    }
+
+    /// Whether no photon was stored.
+    pub fn is_empty(&self) -> bool {
+        self.photons.is_empty()
+    }
+
+    /// Photon-tracing statistics.
+    pub fn stats(&self) -> &PhotonStats {
+        &self.stats
+    }
+
+    /// Seconds spent building the kd-tree.
+    pub fn build_seconds(&self) -> f64 {
+        self.build_seconds
+    }
+
+    /// The up to `k` nearest photons within `maxdist` of `p`, sorted by distance, as
+    /// `(squared distance, photon index)`.
+    pub fn gather(&self, p: Vec3, k: usize, maxdist: f32) -> Vec<(f32, u32)> {
+        let mut hits = Vec::new();
+        self.gather_into(p, k, maxdist, &mut hits);
+        hits
+    }
+
+    /// Gathers sorted by distance (kiddo keeps results sorted cheaply for k ≤ 192).
+    fn gather_into(&self, p: Vec3, k: usize, maxdist: f32, hits: &mut Vec<(f32, u32)>) {
+        hits.clear();
+        let Some(k) = NonZeroUsize::new(k) else {
+            return;
+        };
+        if self.photons.is_empty() {
+            return;
+        }
+        hits.extend(
+            self.tree
+                .query(&p.to_array())
+                .nearest_n::<SquaredEuclidean<f32>>(k)
+                .within(maxdist * maxdist)
+                .execute()
+                .into_iter()
+                .map(|h| (h.distance, h.item)),
+        );
+    }
+
+    /// One estimate without prefix sums: the sum over all gathered photons, with the
+    /// radius rule of [`PhotonMap::estimates`]. Returns the estimate and its radius.
+    fn estimate_unsorted(
+        &self,
+        p: Vec3,
+        wo: Vec3,
+        phase: Phase,
+        v: &GatherVariant,
+        hits: &mut Vec<(f32, u32)>,
+    ) -> (Vec3, f32) {
+        self.gather_into(p, v.nused as usize, v.maxdist, hits);
+        let n = hits.len();
+        let mut sum = Vec3::ZERO;
+        let mut r2 = 0.0f32;
+        for &(d2, i) in hits.iter() {
+            let photon = &self.photons[i as usize];
+            let weight = match v.gathered {
+                Gathered::Flux => 1.0,
+                Gathered::Fluence if photon.sigma_t > 0.0 => 1.0 / photon.sigma_t,
+                Gathered::Fluence => 0.0,
+            };
+            sum += photon.power * (weight * phase.eval(photon.direction, wo));
+            r2 = r2.max(d2);
+        }
+        let r = if n == v.nused as usize {
+            r2.sqrt()
+        } else {
+            v.maxdist
+        };
+        if n == 0 || r <= 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        (sum / (4.0 / 3.0 * std::f32::consts::PI * r * r * r), r)
+    }
+
+    /// Radiance estimates (eq. 11) at `p` towards propagation direction `wo` for every
+    /// variant, from a single k-NN query with the largest `nused` and `maxdist`.
+    pub fn estimates(
+        &self,
+        p: Vec3,
+        wo: Vec3,
+        phase: Phase,
+        variants: &[GatherVariant],
+        scratch: &mut GatherScratch,
+        out: &mut [Vec3],
+    ) {
+        debug_assert_eq!(variants.len(), out.len());
+        scratch.radii.clear();
+        if let [v] = variants {
+            let (value, r) = self.estimate_unsorted(p, wo, phase, v, &mut scratch.hits);
+            out[0] = value;
+            scratch.radii.push(r);
+            return;
+        }
+        let k = variants.iter().map(|v| v.nused).max().unwrap_or(0) as usize;
+        let r_max = variants.iter().map(|v| v.maxdist).fold(0.0f32, f32::max);
+        let GatherScratch {
+            hits,
+            flux,
+            fluence,
+            radii,
+        } = scratch;
+        self.gather_into(p, k, r_max, hits);
+        let need_flux = variants.iter().any(|v| v.gathered == Gathered::Flux);
+        let need_fluence = variants.iter().any(|v| v.gathered == Gathered::Fluence);
+        // Prefix sums of p·ΔΦ (and of p·ΔΦ/σt) in distance order.
+        flux.clear();
+        fluence.clear();
+        let (mut acc_flux, mut acc_fluence) = (Vec3::ZERO, Vec3::ZERO);
+        if need_flux {
+            flux.push(Vec3::ZERO);
+        }
+        if need_fluence {
+            fluence.push(Vec3::ZERO);
+        }
+        for &(_, i) in hits.iter() {
+            let photon = &self.photons[i as usize];
+            let contribution = photon.power * phase.eval(photon.direction, wo);
+            if need_flux {
+                acc_flux += contribution;
+                flux.push(acc_flux);
+            }
+            if need_fluence {
+                if photon.sigma_t > 0.0 {
+                    acc_fluence += contribution / photon.sigma_t;
+                }
+                fluence.push(acc_fluence);
+            }
+        }
+        for (v, o) in variants.iter().zip(out.iter_mut()) {
+            let r2_max = v.maxdist * v.maxdist;
+            // Photons of this variant: the prefix within its radius, at most nused.
+            let within = hits.partition_point(|&(d2, _)| d2 <= r2_max);
+            let n = within.min(v.nused as usize);
+            let r = if n == v.nused as usize {
+                hits[n - 1].0.sqrt()
+            } else {
+                v.maxdist
+            };
+            // No photons, or coincident photons (zero radius): the estimate is left black
+            // rather than undefined.
+            if n == 0 || r <= 0.0 {
+                *o = Vec3::ZERO;
+                radii.push(0.0);
+                continue;
+            }
+            radii.push(r);
+            let volume = 4.0 / 3.0 * std::f32::consts::PI * r * r * r;
+            let sum = match v.gathered {
+                Gathered::Flux => flux[n],
+                Gathered::Fluence => fluence[n],
+            };
+            *o = sum / volume;
+        }
+    }
+
+    /// A single flux-density estimate (eq. 11).
+    pub fn estimate(&self, p: Vec3, wo: Vec3, nused: u32, maxdist: f32, phase: Phase) -> Vec3 {
+        let mut out = [Vec3::ZERO];
+        let variant = GatherVariant {
+            nused,
+            maxdist,
+            gathered: Gathered::Flux,
+        };
+        self.estimates(
+            p,
+            wo,
+            phase,
+            &[variant],
+            &mut GatherScratch::default(),
+            &mut out,
+        );
+        out[0]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::{Domain, Rng};
+
+    fn uniform_cloud(n: usize, power: f32) -> PhotonMap {
+        let mut rng = Rng::stream(2, Domain::Misc, 0);
+        let photons = (0..n)
+            .map(|_| Photon {
+                position: Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()),
+                direction: Vec3::Z,
+                power: Vec3::splat(power),
+                sigma_t: 1.0,
+            })
+            .collect();
+        PhotonMap::new(photons, PhotonStats::default())
+    }
+
+    #[test]
+    fn estimate_of_uniform_density_is_flux_per_volume_times_phase() {
+        // n photons of power q uniformly in the unit cube: Σ ΔΦ / V → n·q, times 1/(4π).
+        let n = 200_000;
+        let q = 1e-5;
+        let map = uniform_cloud(n, q);
+        let expected = n as f32 * q * crate::math::INV_4PI;
+        let est = map.estimate(Vec3::splat(0.5), Vec3::X, 400, 0.3, Phase::ISOTROPIC);
+        assert!(
+            (est.x / expected - 1.0).abs() < 0.1,
+            "{} vs {expected}",
+            est.x
+        );
+    }
+
+    #[test]
+    fn variants_match_separate_queries_and_radius_rule() {
+        let map = uniform_cloud(5000, 1.0);
+        let p = Vec3::new(0.3, 0.6, 0.4);
+        let variants = [
+            GatherVariant {
+                nused: 10,
+                maxdist: 0.5,
+                gathered: Gathered::Flux,
+            },
+            GatherVariant {
+                nused: 150,
+                maxdist: 0.5,
+                gathered: Gathered::Flux,
+            },
+            GatherVariant {
+                nused: 150,
+                maxdist: 0.08,
+                gathered: Gathered::Flux,
+            },
+        ];
+        let mut shared = [Vec3::ZERO; 3];
+        map.estimates(
+            p,
+            Vec3::X,
+            Phase::ISOTROPIC,
+            &variants,
+            &mut GatherScratch::default(),
+            &mut shared,
+        );
+        for (v, s) in variants.iter().zip(shared) {
+            let single = map.estimate(p, Vec3::X, v.nused, v.maxdist, Phase::ISOTROPIC);
+            assert!(
+                (single - s).length() <= 1e-6 * single.length().max(1.0),
+                "{v:?}"
+            );
+        }
+        // Fewer than nused within maxdist: r = maxdist.
+        let hits = map.gather(p, 150, 0.08);
+        assert!(!hits.is_empty() && hits.len() < 150);
+        let expected = hits.len() as f32 * crate::math::INV_4PI
+            / (4.0 / 3.0 * std::f32::consts::PI * 0.08f32.powi(3));
+        assert!(
+            (shared[2].x - expected).abs() < 1e-3 * expected,
+            "{} vs {expected} ({} hits)",
+            shared[2].x,
+            hits.len()
+        );
+    }
+
+    #[test]
+    fn empty_map_estimates_zero() {
+        let map = PhotonMap::new(Vec::new(), PhotonStats::default());
+        assert_eq!(
+            map.estimate(Vec3::ZERO, Vec3::X, 10, 0.1, Phase::ISOTROPIC),
+            Vec3::ZERO
+        );
+    }
+}

@@ -1,0 +1,279 @@
+//! Photon tracing (thesis §5.1, §7.1.2).
+//!
+//! * Photons leave the lights; each light emits a share of the photons proportional to its
+//!   power, so all photons carry about the same power. Spot lights sample their cone by
+//!   their falloff.
+//! * The free path to the next interaction follows a named rule ([`FreePath`]): `delta`
+//!   (Woodcock tracking, exact), `march` (inverting the ray-marched optical depth) or
+//!   `thesis` (`d = −ln ξ / σt(x)` at the current point after searching forward for σt > 0).
+//! * At an interaction, Russian roulette with the albedo decides scatter or absorb.
+//! * A photon is stored at every interaction (scatter or absorb) but only after it has
+//!   been scattered at least once — direct light is left to ray marching. Its power is the
+//!   light's power divided by the number of photons that light EMITTED.
+//! * Photon `i` draws from its own random stream `(seed, i)`: results do not depend on the
+//!   thread count.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::math::{Domain, Ray, Rng};
+use crate::medium::{FreePath, Medium};
+use crate::scene::Light;
+
+/// A stored photon.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Photon {
+    /// Where it interacted.
+    pub position: Vec3,
+    /// Its propagation direction when it arrived.
+    pub direction: Vec3,
+    /// Its power ΔΦ (W, RGB), already divided by its light's emitted count.
+    pub power: Vec3,
+    /// σt where it was stored (0 when the thesis's free-path rule lands in empty space).
+    pub sigma_t: f32,
+}
+
+/// Statistics of one photon-tracing run.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PhotonStats {
+    /// Photons emitted, over all lights.
+    pub emitted: u64,
+    /// Photons emitted per light.
+    pub emitted_per_light: Vec<u64>,
+    /// Photons stored in the map.
+    pub stored: u64,
+    /// Photons that never interacted (missed the volume or passed through).
+    pub escaped_without_interaction: u64,
+    /// Photons that were absorbed.
+    pub absorbed: u64,
+    /// Photons stopped by the interaction cap (albedo ≈ 1 in a closed medium).
+    pub truncated: u64,
+    /// Interactions per emitted photon.
+    pub interactions_per_photon: f64,
+    /// Mean length of the flights from one interaction to the next (world units): the
+    /// empirical mean free path inside the medium. Flights that leave the volume are not
+    /// counted (their length is censored), nor the first flight from the light.
+    pub mean_flight_distance: f64,
+    /// Median of the same flights.
+    pub median_flight_distance: f64,
+    /// Total power stored (W, RGB mean).
+    pub stored_power: f64,
+    /// Seconds spent tracing.
+    pub seconds: f64,
+}
+
+/// Interactions after which a photon is stopped (counted in [`PhotonStats::truncated`]).
+pub const MAX_INTERACTIONS: u32 = 100_000;
+
+/// The photon-tracing settings taken from the scene.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TraceSettings {
+    /// Photons emitted in total.
+    pub photons: u64,
+    /// Free-path rule.
+    pub free_path: FreePath,
+    /// Step for the `march` and `thesis` rules.
+    pub stepsize: f32,
+    /// Random seed.
+    pub seed: u64,
+}
+
+/// Splits `total` photons over lights in proportion to their power (largest remainders),
+/// so photons carry equal energies (§7.1.2).
+pub fn photons_per_light(lights: &[Light], total: u64) -> Vec<u64> {
+    let powers: Vec<f64> = lights
+        .iter()
+        .map(|l| {
+            let p = l.power();
+            (p.x as f64 + p.y as f64 + p.z as f64) / 3.0
+        })
+        .collect();
+    let sum: f64 = powers.iter().sum();
+    if sum <= 0.0 || lights.is_empty() {
+        return vec![0; lights.len()];
+    }
+    let exact: Vec<f64> = powers.iter().map(|p| total as f64 * p / sum).collect();
+    let mut counts: Vec<u64> = exact.iter().map(|e| e.floor() as u64).collect();
+    let mut remainder = total - counts.iter().sum::<u64>();
+    let mut order: Vec<usize> = (0..lights.len()).collect();
+    order.sort_by(|&a, &b| {
+        (exact[b] - exact[b].floor())
+            .partial_cmp(&(exact[a] - exact[a].floor()))
+            .unwrap_or(std::cmp::Ordering::Equal)
+            .then(a.cmp(&b))
+    });
+    for &i in order.iter().cycle() {
+        if remainder == 0 {
+            break;
+        }
+        counts[i] += 1;
+        remainder -= 1;
+    }
+    counts
+}
+
+#[derive(Default)]
+struct Chunk {
+    photons: Vec<Photon>,
+    flights: Vec<f32>,
+    interactions: u64,
+    escaped: u64,
+    absorbed: u64,
+    truncated: u64,
+}
+
+/// Traces photons from every light through the medium and returns the stored photons in
+/// photon-index order with statistics.
+pub fn trace(
+    medium: &Medium,
+    lights: &[Light],
+    settings: &TraceSettings,
+) -> (Vec<Photon>, PhotonStats) {
+    let start = Instant::now();
+    let per_light = photons_per_light(lights, settings.photons);
+    // Photon i belongs to the first light whose cumulative count exceeds i.
+    let ends: Vec<u64> = per_light
+        .iter()
+        .scan(0u64, |acc, &n| {
+            *acc += n;
+            Some(*acc)
+        })
+        .collect();
+    let total = ends.last().copied().unwrap_or(0);
+    const CHUNK: u64 = 1024;
+    let chunks: Vec<Chunk> = (0..total.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut chunk = Chunk::default();
+            for i in c * CHUNK..((c + 1) * CHUNK).min(total) {
+                let light_index = ends.partition_point(|&e| e <= i);
+                let light = &lights[light_index];
+                let power = light.power() / per_light[light_index] as f32;
+                trace_one(medium, light, power, i, settings, &mut chunk);
+            }
+            chunk
+        })
+        .collect();
+    let mut photons = Vec::new();
+    let mut flights = Vec::new();
+    let mut stats = PhotonStats {
+        emitted: total,
+        emitted_per_light: per_light,
+        ..Default::default()
+    };
+    let mut interactions = 0u64;
+    for c in chunks {
+        photons.extend(c.photons);
+        flights.extend(c.flights);
+        interactions += c.interactions;
+        stats.escaped_without_interaction += c.escaped;
+        stats.absorbed += c.absorbed;
+        stats.truncated += c.truncated;
+    }
+    stats.stored = photons.len() as u64;
+    stats.interactions_per_photon = if total > 0 {
+        interactions as f64 / total as f64
+    } else {
+        0.0
+    };
+    if !flights.is_empty() {
+        stats.mean_flight_distance =
+            flights.iter().map(|&f| f as f64).sum::<f64>() / flights.len() as f64;
+        let mid = flights.len() / 2;
+        let (_, median, _) = flights.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+        stats.median_flight_distance = *median as f64;
+    }
+    stats.stored_power = photons
+        .iter()
+        .map(|p| (p.power.x as f64 + p.power.y as f64 + p.power.z as f64) / 3.0)
+        .sum();
+    stats.seconds = start.elapsed().as_secs_f64();
+    (photons, stats)
+}
+
+fn trace_one(
+    medium: &Medium,
+    light: &Light,
+    power: Vec3,
+    index: u64,
+    s: &TraceSettings,
+    out: &mut Chunk,
+) {
+    let mut rng = Rng::stream(s.seed, Domain::Photons, index);
+    let mut ray = Ray::new(light.position(), light.sample_direction(&mut rng));
+    let mut power = power;
+    let mut scattered = 0u32;
+    let mut interactions = 0u32;
+    while let Some((t0, t1)) = medium.clip(&ray) {
+        let hit = medium.sample_free_path(s.free_path, &ray, t0, t1, s.stepsize, &mut rng);
+        let Some(t) = hit else {
+            break;
+        };
+        let position = ray.at(t);
+        // The empirical mean free path counts flights between interactions; the first
+        // flight, from where the photon entered the box, mostly crosses empty space.
+        if interactions > 0 {
+            out.flights.push(t - t0);
+        }
+        interactions += 1;
+        if scattered >= 1 {
+            out.photons.push(Photon {
+                position,
+                direction: ray.direction,
+                power,
+                sigma_t: medium.sigma_t(position),
+            });
+        }
+        if interactions >= MAX_INTERACTIONS {
+            out.truncated += 1;
+            out.interactions += interactions as u64;
+            return;
+        }
+        // Russian roulette with the albedo (§5.1): survive with the mean albedo, keep the
+        // expected per-channel power by re-weighting with albedo / mean albedo.
+        let survive = medium.mean_albedo();
+        if rng.uniform() >= survive {
+            out.absorbed += 1;
+            out.interactions += interactions as u64;
+            return;
+        }
+        power *= medium.albedo() / survive;
+        scattered += 1;
+        let direction = medium.phase().sample(ray.direction, rng.uniform2());
+        ray = Ray::new(position, direction);
+    }
+    if interactions == 0 {
+        out.escaped += 1;
+    }
+    out.interactions += interactions as u64;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Intensity, LightParams};
+
+    fn point(intensity: f32) -> Light {
+        Light::create(&LightParams {
+            kind: crate::scene::LightKind::Point,
+            position: [0.5, 0.5, 3.0],
+            target: None,
+            intensity: Intensity::Grey(intensity),
+            cone_angle: None,
+            beam_width: None,
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn photons_split_by_power() {
+        let lights = [point(1.0), point(3.0), point(0.0001)];
+        let counts = photons_per_light(&lights, 1001);
+        assert_eq!(counts.iter().sum::<u64>(), 1001);
+        assert_eq!(counts[1], 751, "largest remainder gets the leftover photon");
+        assert_eq!(counts[0], 250);
+    }
+}

@@ -1,0 +1,504 @@
+//! Point and spot lights, and the thesis's three-point preset (§8.2).
+//!
+//! Conventions (as in common physically based renderers):
+//! * point light: radiant intensity `I` (W/sr, RGB) in every direction; irradiance `I/r²`;
+//! * spot light: `I·falloff(θ)/r²` with θ the angle to the axis; `falloff = 1` for
+//!   `θ ≤ beam_width`, falling linearly in angle to 0 at `θ = cone_angle`.
+//!   Its power is `Φ = 2π·I·(1 + (sin θw − sin θc)/(θc − θw))` (→ `2π·I·(1 − cos θc)` when
+//!   `θw = θc`).
+
+use std::f32::consts::PI;
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::camera::Camera;
+use crate::error::{Error, Result};
+use crate::math::{Aabb, Frame, Rng, uniform_sphere};
+
+/// One light as written in a scene's `[[lights]]` array.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightParams {
+    /// `spot` or `point`.
+    #[serde(rename = "type")]
+    pub kind: LightKind,
+    /// Position.
+    pub position: [f32; 3],
+    /// `spot`: the point the axis aims at.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<[f32; 3]>,
+    /// Radiant intensity on the axis, W/sr: one number (white) or RGB.
+    pub intensity: Intensity,
+    /// `spot`: angle from the axis to the cut-off, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cone_angle: Option<f32>,
+    /// `spot`: angle from the axis where the falloff starts, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beam_width: Option<f32>,
+}
+
+/// The kind of a light (`type = "spot"` or `"point"` in a scene).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LightKind {
+    /// A spot light: a cone with a linear falloff in angle.
+    Spot,
+    /// A point light radiating equally in every direction.
+    Point,
+}
+
+/// An intensity given as one grey number or an RGB triple.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Intensity {
+    /// The same value for R, G, B.
+    Grey(f32),
+    /// Per channel.
+    Rgb([f32; 3]),
+}
+
+impl Intensity {
+    /// As an RGB vector.
+    pub fn rgb(&self) -> Vec3 {
+        match *self {
+            Intensity::Grey(v) => Vec3::splat(v),
+            Intensity::Rgb(c) => Vec3::from(c),
+        }
+    }
+}
+
+/// A spot light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpotLight {
+    position: Vec3,
+    frame: Frame,
+    intensity: Vec3,
+    cone_angle: f32,
+    beam_width: f32,
+    cos_cone: f32,
+}
+
+/// A point light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointLight {
+    position: Vec3,
+    intensity: Vec3,
+}
+
+/// A light source.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Light {
+    /// Spot light.
+    Spot(SpotLight),
+    /// Point light.
+    Point(PointLight),
+}
+
+/// Light arriving at a point from one light, before any attenuation by the medium.
+#[derive(Debug, Clone, Copy)]
+pub struct Incident {
+    /// Unit direction from the point towards the light.
+    pub to_light: Vec3,
+    /// Distance to the light.
+    pub distance: f32,
+    /// Irradiance-like term `I·falloff/r²` (W/m² per unit solid angle of the phase function).
+    pub radiance: Vec3,
+}
+
+fn validate_intensity(i: Vec3) -> Result<()> {
+    if i.is_finite() && i.min_element() >= 0.0 && i.max_element() > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::parameter(
+            "intensity",
+            format!("{:?}", i.to_array()),
+            "finite values >= 0, not all 0 (W/sr)",
+        ))
+    }
+}
+
+impl Light {
+    /// Builds a light from its parameters; errors name the key.
+    pub fn create(params: &LightParams) -> Result<Self> {
+        let position = Vec3::from(params.position);
+        if !position.is_finite() {
+            return Err(Error::parameter(
+                "position",
+                format!("{:?}", params.position),
+                "three finite numbers",
+            ));
+        }
+        let intensity = params.intensity.rgb();
+        validate_intensity(intensity)?;
+        match params.kind {
+            LightKind::Point => {
+                for (key, present) in [
+                    ("target", params.target.is_some()),
+                    ("cone_angle", params.cone_angle.is_some()),
+                    ("beam_width", params.beam_width.is_some()),
+                ] {
+                    if present {
+                        return Err(Error::parameter(
+                            key,
+                            "(given)",
+                            "no such key for a point light",
+                        ));
+                    }
+                }
+                Ok(Light::Point(PointLight {
+                    position,
+                    intensity,
+                }))
+            }
+            LightKind::Spot => {
+                let target = params.target.ok_or_else(|| {
+                    Error::parameter("target", "(missing)", "the point the spot light aims at")
+                })?;
+                let cone = params.cone_angle.unwrap_or(30.0);
+                let beam = params.beam_width.unwrap_or(cone * 0.8);
+                SpotLight::new(position, Vec3::from(target), intensity, cone, beam).map(Light::Spot)
+            }
+        }
+    }
+
+    /// Position of the light.
+    pub fn position(&self) -> Vec3 {
+        match self {
+            Light::Spot(s) => s.position,
+            Light::Point(p) => p.position,
+        }
+    }
+
+    /// Total emitted power Φ (W, RGB).
+    pub fn power(&self) -> Vec3 {
+        match self {
+            Light::Point(p) => 4.0 * PI * p.intensity,
+            Light::Spot(s) => s.intensity * s.solid_angle_weight(),
+        }
+    }
+
+    /// Light arriving at `p` (unattenuated), or `None` outside a spot's cone.
+    #[inline]
+    pub fn incident(&self, p: Vec3) -> Option<Incident> {
+        let (position, intensity) = match self {
+            Light::Spot(s) => (s.position, s.intensity),
+            Light::Point(l) => (l.position, l.intensity),
+        };
+        let d = position - p;
+        let dist2 = d.length_squared();
+        if dist2 <= 0.0 {
+            return None;
+        }
+        let distance = dist2.sqrt();
+        let to_light = d / distance;
+        let falloff = match self {
+            Light::Spot(s) => s.falloff(-to_light),
+            Light::Point(_) => 1.0,
+        };
+        if falloff <= 0.0 {
+            return None;
+        }
+        Some(Incident {
+            to_light,
+            distance,
+            radiance: intensity * (falloff / dist2),
+        })
+    }
+
+    /// Samples an emitted photon's direction with a pdf proportional to the emitted
+    /// intensity (so all photons of a light carry equal power, §5.1/§7.1.2).
+    pub fn sample_direction(&self, rng: &mut Rng) -> Vec3 {
+        match self {
+            Light::Point(_) => uniform_sphere(rng.uniform2()),
+            Light::Spot(s) => s.sample_direction(rng),
+        }
+    }
+}
+
+impl SpotLight {
+    /// A spot light at `position` aiming at `target`.
+    pub fn new(
+        position: Vec3,
+        target: Vec3,
+        intensity: Vec3,
+        cone_angle_deg: f32,
+        beam_width_deg: f32,
+    ) -> Result<Self> {
+        validate_intensity(intensity)?;
+        let axis = target - position;
+        if !target.is_finite() || axis.length() < 1e-6 {
+            return Err(Error::parameter(
+                "target",
+                format!("{:?}", target.to_array()),
+                "a finite point different from `position`",
+            ));
+        }
+        if !(cone_angle_deg.is_finite() && cone_angle_deg > 0.0 && cone_angle_deg < 180.0) {
+            return Err(Error::parameter(
+                "cone_angle",
+                cone_angle_deg,
+                "an angle in (0, 180) degrees",
+            ));
+        }
+        if !(beam_width_deg.is_finite() && beam_width_deg > 0.0 && beam_width_deg <= cone_angle_deg)
+        {
+            return Err(Error::parameter(
+                "beam_width",
+                beam_width_deg,
+                format!("an angle in (0, cone_angle = {cone_angle_deg}] degrees"),
+            ));
+        }
+        let cone = cone_angle_deg.to_radians();
+        Ok(SpotLight {
+            position,
+            frame: Frame::from_w(axis.normalize()),
+            intensity,
+            cone_angle: cone,
+            beam_width: beam_width_deg.to_radians(),
+            cos_cone: cone.cos(),
+        })
+    }
+
+    /// Falloff for a unit direction leaving the light.
+    #[inline]
+    pub fn falloff(&self, w: Vec3) -> f32 {
+        let c = w.dot(self.frame.w);
+        if c < self.cos_cone {
+            return 0.0;
+        }
+        let theta = c.clamp(-1.0, 1.0).acos();
+        if theta <= self.beam_width {
+            1.0
+        } else {
+            ((self.cone_angle - theta) / (self.cone_angle - self.beam_width)).clamp(0.0, 1.0)
+        }
+    }
+
+    /// `∫ falloff dω` (sr).
+    pub fn solid_angle_weight(&self) -> f32 {
+        let (tw, tc) = (self.beam_width, self.cone_angle);
+        if tc - tw < 1e-6 {
+            return 2.0 * PI * (1.0 - tc.cos());
+        }
+        2.0 * PI * (1.0 + (tw.sin() - tc.sin()) / (tc - tw))
+    }
+
+    fn sample_direction(&self, rng: &mut Rng) -> Vec3 {
+        // Uniform in the cone's solid angle, accepted with probability falloff: exact for the
+        // falloff-weighted distribution.
+        loop {
+            let u = rng.uniform2();
+            let cos_t = 1.0 - u[0] * (1.0 - self.cos_cone);
+            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+            let phi = 2.0 * PI * u[1];
+            let w = self
+                .frame
+                .to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t));
+            let f = self.falloff(w);
+            if f >= 1.0 || rng.uniform() < f {
+                return w;
+            }
+        }
+    }
+}
+
+/// Parameters of the three-point preset (§8.2): key ~15° left of and ~30° above the
+/// camera, fill ~15° right and lower at 1/10 of the key, rim from behind onto the top,
+/// a little weaker than the key.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThreePointParams {
+    /// Key light intensity on its axis, W/sr.
+    #[serde(default = "default_key")]
+    pub key_intensity: f32,
+    /// Fill intensity as a fraction of the key (§8.2: ~1/10).
+    #[serde(default = "default_fill_ratio")]
+    pub fill_ratio: f32,
+    /// Rim intensity as a fraction of the key (§8.2: "a little weaker").
+    #[serde(default = "default_rim_ratio")]
+    pub rim_ratio: f32,
+    /// Light distance from the volume centre as a multiple of the camera's distance.
+    #[serde(default = "default_distance")]
+    pub distance_scale: f32,
+}
+
+fn default_key() -> f32 {
+    100.0
+}
+fn default_fill_ratio() -> f32 {
+    0.1
+}
+fn default_rim_ratio() -> f32 {
+    0.8
+}
+fn default_distance() -> f32 {
+    1.0
+}
+
+impl Default for ThreePointParams {
+    fn default() -> Self {
+        ThreePointParams {
+            key_intensity: default_key(),
+            fill_ratio: default_fill_ratio(),
+            rim_ratio: default_rim_ratio(),
+            distance_scale: default_distance(),
+        }
+    }
+}
+
+/// Builds key, fill and rim spot lights around `bounds` as seen from `camera`.
+pub fn three_point(
+    camera: &Camera,
+    bounds: &Aabb,
+    params: &ThreePointParams,
+) -> Result<Vec<Light>> {
+    crate::error::check_positive("key_intensity", params.key_intensity as f64)?;
+    crate::error::check_range("fill_ratio", params.fill_ratio as f64, 0.0, 10.0)?;
+    crate::error::check_range("rim_ratio", params.rim_ratio as f64, 0.0, 10.0)?;
+    crate::error::check_range("distance_scale", params.distance_scale as f64, 0.1, 100.0)?;
+    let centre = bounds.center();
+    let to_camera = camera.eye() - centre;
+    let distance = to_camera.length() * params.distance_scale;
+    let back = to_camera.normalize();
+    let up = camera.up();
+    let right = camera.right();
+    let radius = bounds.diagonal() * 0.5;
+    // Direction from the centre at `yaw` (positive = camera's right) and `pitch` (up).
+    let dir = |yaw_deg: f32, pitch_deg: f32| {
+        let (yaw, pitch) = (yaw_deg.to_radians(), pitch_deg.to_radians());
+        (back * yaw.cos() + right * yaw.sin()) * pitch.cos() + up * pitch.sin()
+    };
+    let spot = |position: Vec3, target: Vec3, intensity: f32| -> Result<Light> {
+        // Cone wide enough to cover the whole volume from this distance.
+        let half = (radius / (position - target).length()).atan().to_degrees() * 1.15;
+        let cone = half.clamp(5.0, 89.0);
+        SpotLight::new(position, target, Vec3::splat(intensity), cone, cone * 0.75).map(Light::Spot)
+    };
+    let key = spot(
+        centre + dir(-15.0, 30.0) * distance,
+        centre,
+        params.key_intensity,
+    )?;
+    let mut lights = vec![key];
+    if params.fill_ratio > 0.0 {
+        lights.push(spot(
+            centre + dir(15.0, -10.0) * distance,
+            centre,
+            params.key_intensity * params.fill_ratio,
+        )?);
+    }
+    if params.rim_ratio > 0.0 {
+        let top = centre + up * (bounds.extent().dot(up.abs()) * 0.3);
+        lights.push(spot(
+            centre + dir(180.0, 45.0) * distance,
+            top,
+            params.key_intensity * params.rim_ratio,
+        )?);
+    }
+    Ok(lights)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Domain;
+
+    fn spot(cone: f32, beam: f32) -> SpotLight {
+        SpotLight::new(Vec3::ZERO, Vec3::Z, Vec3::ONE, cone, beam).unwrap()
+    }
+
+    #[test]
+    fn spot_power_matches_numerical_integral() {
+        for (cone, beam) in [(30.0, 20.0), (45.0, 45.0), (60.0, 5.0)] {
+            let s = spot(cone, beam);
+            let n = 200_000;
+            let integral: f32 = (0..n)
+                .map(|i| {
+                    let theta = (i as f32 + 0.5) / n as f32 * PI;
+                    let w = Vec3::new(theta.sin(), 0.0, theta.cos());
+                    s.falloff(w) * theta.sin() * PI / n as f32
+                })
+                .sum::<f32>()
+                * 2.0
+                * PI;
+            assert!(
+                (integral - s.solid_angle_weight()).abs() < 1e-3,
+                "{cone}/{beam}"
+            );
+        }
+    }
+
+    #[test]
+    fn falloff_convention() {
+        let s = spot(30.0, 20.0);
+        let at = |deg: f32| {
+            s.falloff(Vec3::new(
+                deg.to_radians().sin(),
+                0.0,
+                deg.to_radians().cos(),
+            ))
+        };
+        assert_eq!(at(0.0), 1.0);
+        assert_eq!(at(19.9), 1.0);
+        assert!((at(25.0) - 0.5).abs() < 1e-3);
+        assert_eq!(at(31.0), 0.0);
+    }
+
+    #[test]
+    fn sampled_directions_follow_falloff() {
+        let s = spot(30.0, 10.0);
+        let light = Light::Spot(s);
+        let mut rng = Rng::stream(1, Domain::Misc, 7);
+        // Fraction inside the beam = ∫_beam dω / ∫ falloff dω.
+        let n = 100_000;
+        let inside = (0..n)
+            .filter(|_| light.sample_direction(&mut rng).z >= 10f32.to_radians().cos())
+            .count();
+        let expected = 2.0 * PI * (1.0 - 10f32.to_radians().cos()) / s.solid_angle_weight();
+        assert!((inside as f32 / n as f32 - expected).abs() < 0.01);
+    }
+
+    #[test]
+    fn inverse_square_and_cone() {
+        let l = Light::create(&LightParams {
+            kind: LightKind::Point,
+            position: [0.0, 0.0, 2.0],
+            target: None,
+            intensity: Intensity::Grey(8.0),
+            cone_angle: None,
+            beam_width: None,
+        })
+        .unwrap();
+        let inc = l.incident(Vec3::ZERO).unwrap();
+        assert!((inc.radiance - Vec3::splat(2.0)).length() < 1e-6);
+        assert!((l.power().x - 32.0 * PI).abs() < 1e-4);
+        let s = Light::Spot(spot(30.0, 20.0));
+        let on_axis = s.incident(Vec3::new(0.0, 0.0, 2.0)).unwrap();
+        assert!((on_axis.radiance.x - 0.25).abs() < 1e-6 && on_axis.to_light.z < 0.0);
+        assert!(
+            s.incident(Vec3::new(1.0, 0.0, 0.1)).is_none(),
+            "outside the cone"
+        );
+        assert!(
+            s.incident(Vec3::new(0.0, 0.0, -1.0)).is_none(),
+            "behind the spot"
+        );
+    }
+
+    #[test]
+    fn three_point_layout() {
+        let cam = Camera::create(&super::super::CameraParams::default()).unwrap();
+        let lights = three_point(&cam, &Aabb::unit(), &ThreePointParams::default()).unwrap();
+        assert_eq!(lights.len(), 3);
+        let c = Vec3::splat(0.5);
+        let key = lights[0].position() - c;
+        let fill = lights[1].position() - c;
+        let rim = lights[2].position() - c;
+        assert!(key.dot(cam.right()) < 0.0, "key is left of the camera");
+        assert!(key.dot(cam.up()) > 0.0, "key is above");
+        assert!(fill.dot(cam.right()) > 0.0 && fill.dot(cam.up()) < key.dot(cam.up()));
+        assert!(rim.dot(cam.forward()) > 0.0, "rim is behind the volume");
+        assert!((lights[1].power().x / lights[0].power().x - 0.1).abs() < 1e-4);
+    }
+}

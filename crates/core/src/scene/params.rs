@@ -1,0 +1,399 @@
+//! The scene file's parameters (`[volume]`, `[transfer]`, `[sigma]`, `[phase]`, `[camera]`,
+//! `[three_point]`, `[[lights]]`, `[integrator]`, `[film]`), their validation, and loading
+//! the volume and medium they name.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::camera::{Camera, CameraParams};
+use super::diagnostics::{locate_error, toml_error};
+use super::light::{Light, LightParams, ThreePointParams};
+use super::settings::{FilmParams, IntegratorParams};
+use crate::error::{Error, Result};
+use crate::medium::{
+    DEFAULT_BRICK_SIZE, Medium, MediumSettings, Phase, SigmaMapping, SigmaParams, TransferFunction,
+    TransferParams,
+};
+use crate::volume::{
+    ByteOrder, DatasetOverrides, FileRequest, Normalization, PhantomParams, Placement, RawLayout,
+    Reconstruction, SearchPath, Volume, VoxelType, load_dataset, read_volume,
+};
+
+/// `[volume]`: where the voxels come from and how they are placed and scaled.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeParams {
+    /// A registry name (`foot`, `engine`, `head`, `head16`, `skeleton`, …).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dataset: Option<String>,
+    /// A file path, relative to the scene file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<PathBuf>,
+    /// A procedural phantom.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phantom: Option<PhantomParams>,
+    /// RAW files: voxel counts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dims: Option<[usize; 3]>,
+    /// RAW files: stored type.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub voxel: Option<VoxelType>,
+    /// RAW files: byte order (default little).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub byte_order: Option<ByteOrder>,
+    /// RAW files: bytes before the first voxel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub header_bytes: Option<u64>,
+    /// Expected sha256 of a `file` (verified when given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sha256: Option<String>,
+    /// World box `p0..p1` (thesis §7.2.1).
+    #[serde(default, rename = "box", skip_serializing_if = "Option::is_none")]
+    pub bounds: Option<BoxParams>,
+    /// Physical voxel spacing (the volume is centred in the unit box, longest axis 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spacing: Option<[f32; 3]>,
+    /// `type-range`, `min-max` or `window`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normalize: Option<String>,
+    /// With `normalize = "window"`: raw `[lo, hi]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub window: Option<[f64; 2]>,
+    /// `trilinear` (default) or `nearest`.
+    #[serde(default)]
+    pub reconstruction: Reconstruction,
+    /// Majorant brick edge in voxels.
+    #[serde(default = "default_brick_size")]
+    pub brick_size: usize,
+}
+
+fn default_brick_size() -> usize {
+    DEFAULT_BRICK_SIZE
+}
+
+/// A world box.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxParams {
+    /// Lower corner.
+    pub p0: [f32; 3],
+    /// Upper corner.
+    pub p1: [f32; 3],
+}
+
+/// `[phase]`: the phase function.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhaseParams {
+    /// Henyey–Greenstein asymmetry; 0 = isotropic (thesis eq. 4).
+    #[serde(default)]
+    pub g: f32,
+}
+
+/// A whole scene file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneParams {
+    /// The volume.
+    pub volume: VolumeParams,
+    /// Transfer function (default identity).
+    #[serde(default)]
+    pub transfer: TransferParams,
+    /// σ mapping (default: the thesis's rule, σt(d_min) = 80, albedo 9/11).
+    #[serde(default)]
+    pub sigma: SigmaParams,
+    /// Phase function.
+    #[serde(default)]
+    pub phase: PhaseParams,
+    /// Camera.
+    #[serde(default)]
+    pub camera: CameraParams,
+    /// The three-point preset (§8.2), built from the camera.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub three_point: Option<ThreePointParams>,
+    /// Explicit lights.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lights: Vec<LightParams>,
+    /// Renderer settings.
+    #[serde(default)]
+    pub integrator: IntegratorParams,
+    /// Film settings.
+    #[serde(default)]
+    pub film: FilmParams,
+}
+
+impl SceneParams {
+    /// Parses scene TOML; unknown keys and wrong types are located by line and column.
+    pub fn from_toml(src: &str, file: &Path) -> Result<Self> {
+        toml::from_str(src).map_err(|e| toml_error(&e, src, file))
+    }
+
+    /// Deserialises from an already-parsed table (e.g. a base scene with sweep overrides);
+    /// errors name the key path but have no position.
+    pub fn from_table(table: toml::Table) -> Result<Self> {
+        let text = toml::to_string(&table).map_err(|e| Error::Parameter {
+            key: "scene".into(),
+            value: String::new(),
+            expected: format!("a table that serialises to TOML ({e})"),
+        })?;
+        toml::from_str(&text).map_err(|e| Error::Parameter {
+            key: "scene".into(),
+            value: String::new(),
+            expected: e.message().to_string(),
+        })
+    }
+
+    /// The parameters as a TOML table (for overrides and records).
+    pub fn to_table(&self) -> toml::Table {
+        toml::Table::try_from(self).expect("scene parameters serialise to TOML")
+    }
+}
+
+/// Reads and parses a scene file; parameter errors are located.
+pub fn load_params(path: &Path) -> Result<(SceneParams, String)> {
+    let src = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let params = SceneParams::from_toml(&src, path)?;
+    validate_params(&params).map_err(|e| locate_error(e, &src, path))?;
+    Ok((params, src))
+}
+
+/// Checks everything that can be checked without loading the volume.
+pub fn validate_params(params: &SceneParams) -> Result<()> {
+    params
+        .integrator
+        .validate()
+        .map_err(|e| e.within("integrator"))?;
+    params.film.validate().map_err(|e| e.within("film"))?;
+    SigmaMapping::create(&params.sigma).map_err(|e| e.within("sigma"))?;
+    Phase::henyey_greenstein(params.phase.g)
+        .map_err(|_| Error::parameter("phase.g", params.phase.g, "an asymmetry in (-1, 1)"))?;
+    Camera::create(&params.camera).map_err(|e| e.within("camera"))?;
+    for (i, l) in params.lights.iter().enumerate() {
+        Light::create(l).map_err(|e| e.within(&format!("lights[{i}]")))?;
+    }
+    if params.lights.is_empty() && params.three_point.is_none() {
+        return Err(Error::parameter(
+            "lights",
+            "(none)",
+            "at least one [[lights]] entry or a [three_point] table",
+        ));
+    }
+    volume_choice(&params.volume)?;
+    Ok(())
+}
+
+enum VolumeChoice<'a> {
+    Dataset(&'a str),
+    File(&'a Path),
+    Phantom(&'a PhantomParams),
+}
+
+fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
+    let given = [v.dataset.is_some(), v.file.is_some(), v.phantom.is_some()]
+        .iter()
+        .filter(|b| **b)
+        .count();
+    if given != 1 {
+        return Err(Error::parameter(
+            "volume",
+            format!("{given} sources"),
+            "exactly one of `dataset`, `file`, `phantom`",
+        ));
+    }
+    let raw_keys = [
+        ("dims", v.dims.is_some()),
+        ("voxel", v.voxel.is_some()),
+        ("byte_order", v.byte_order.is_some()),
+        ("header_bytes", v.header_bytes.is_some()),
+    ];
+    let is_raw_file = v.file.as_ref().is_some_and(|f| {
+        !matches!(
+            f.extension()
+                .and_then(|e| e.to_str())
+                .map(|e| e.to_ascii_lowercase())
+                .as_deref(),
+            Some("nrrd" | "nhdr" | "mhd" | "mha")
+        )
+    });
+    for (key, present) in raw_keys {
+        if present && !is_raw_file {
+            return Err(Error::parameter(
+                format!("volume.{key}"),
+                "(given)",
+                "only with a headerless RAW `file` (datasets and header files carry their own layout)",
+            ));
+        }
+    }
+    if is_raw_file {
+        if v.dims.is_none() {
+            return Err(Error::parameter(
+                "volume.dims",
+                "(missing)",
+                "[nx, ny, nz] for a RAW file",
+            ));
+        }
+        if v.voxel.is_none() {
+            return Err(Error::parameter(
+                "volume.voxel",
+                "(missing)",
+                "u8, i8, u16, i16 or f32 for a RAW file",
+            ));
+        }
+    }
+    if v.bounds.is_some() && v.spacing.is_some() {
+        return Err(Error::parameter(
+            "volume.spacing",
+            "(given with box)",
+            "either `box` or `spacing`",
+        ));
+    }
+    if v.window.is_some() && v.normalize.as_deref() != Some("window") {
+        return Err(Error::parameter(
+            "volume.window",
+            "(given)",
+            "only with normalize = \"window\"",
+        ));
+    }
+    if v.sha256.is_some() && v.file.is_none() {
+        return Err(Error::parameter(
+            "volume.sha256",
+            "(given)",
+            "only with `file`",
+        ));
+    }
+    if v.phantom.is_some() && v.normalize.is_some() {
+        return Err(Error::parameter(
+            "volume.normalize",
+            "(given)",
+            "no normalisation for phantoms (they are already in [0, 1])",
+        ));
+    }
+    Ok(match (&v.dataset, &v.file, &v.phantom) {
+        (Some(d), _, _) => VolumeChoice::Dataset(d),
+        (_, Some(f), _) => VolumeChoice::File(f),
+        (_, _, Some(p)) => VolumeChoice::Phantom(p),
+        _ => unreachable!("exactly one source checked above"),
+    })
+}
+
+fn normalization(v: &VolumeParams) -> Result<Option<Normalization>> {
+    match v.normalize.as_deref() {
+        None => Ok(None),
+        Some("type-range") => Ok(Some(Normalization::TypeRange)),
+        Some("min-max") => Ok(Some(Normalization::MinMax)),
+        Some("window") => {
+            let [lo, hi] = v.window.ok_or_else(|| {
+                Error::parameter(
+                    "volume.window",
+                    "(missing)",
+                    "[lo, hi] raw values for normalize = \"window\"",
+                )
+            })?;
+            let n = Normalization::Window { lo, hi };
+            n.validate().map_err(|_| {
+                Error::parameter(
+                    "volume.window",
+                    format!("[{lo}, {hi}]"),
+                    "two finite raw values with lo < hi",
+                )
+            })?;
+            Ok(Some(n))
+        }
+        Some(other) => Err(Error::parameter(
+            "volume.normalize",
+            format!("\"{other}\""),
+            "one of type-range, min-max, window",
+        )),
+    }
+}
+
+fn placement(v: &VolumeParams) -> Option<Placement> {
+    if let Some(b) = v.bounds {
+        Some(Placement::Box { p0: b.p0, p1: b.p1 })
+    } else {
+        v.spacing.map(Placement::Spacing)
+    }
+}
+
+/// Loads the volume a scene names. `base` resolves relative file paths.
+pub fn load_volume(v: &VolumeParams, base: &Path, search: &SearchPath) -> Result<Volume> {
+    let norm = normalization(v)?;
+    let place = placement(v);
+    if let Some(p) = place {
+        // Validate placement early so the error names the scene key.
+        p.bounds([1, 1, 1]).map_err(|e| match p {
+            Placement::Box { .. } => e.within("volume"),
+            Placement::Spacing(_) => e.within("volume"),
+        })?;
+    }
+    match volume_choice(v)? {
+        VolumeChoice::Dataset(name) => load_dataset(
+            name,
+            search,
+            &DatasetOverrides {
+                normalization: norm,
+                placement: place,
+            },
+        )
+        .map_err(|e| e.within("volume")),
+        VolumeChoice::File(file) => {
+            let path = base.join(file);
+            let raw_layout = v.dims.map(|dims| RawLayout {
+                dims,
+                voxel: v.voxel.unwrap_or(VoxelType::U8),
+                byte_order: v.byte_order.unwrap_or_default(),
+                header_bytes: v.header_bytes.unwrap_or(0),
+            });
+            read_volume(&FileRequest {
+                path,
+                raw_layout,
+                placement: place,
+                normalization: norm.unwrap_or_default(),
+                dataset: None,
+                expected_sha256: v.sha256.clone(),
+            })
+        }
+        VolumeChoice::Phantom(p) => {
+            let volume = Volume::from_phantom(p).map_err(|e| e.within("volume"))?;
+            match place {
+                // Re-place the generated grid when the scene asks for a box or spacing.
+                Some(pl) => Volume::from_raw_values(
+                    volume.grid().dims(),
+                    volume.grid().values().to_vec(),
+                    None,
+                    Normalization::TypeRange,
+                    pl,
+                    volume.source().clone(),
+                )
+                .map_err(|e| e.within("volume")),
+                None => Ok(volume),
+            }
+        }
+    }
+}
+
+/// Builds the medium for a scene from an already-loaded volume.
+pub fn build_medium(params: &SceneParams, volume: &Volume, base: &Path) -> Result<Medium> {
+    let transfer = TransferFunction::create(&params.transfer, base, volume.normalization())
+        .map_err(|e| e.within("transfer"))?;
+    let mapping = SigmaMapping::create(&params.sigma).map_err(|e| e.within("sigma"))?;
+    let phase = Phase::henyey_greenstein(params.phase.g)
+        .map_err(|_| Error::parameter("phase.g", params.phase.g, "an asymmetry in (-1, 1)"))?;
+    Medium::create(
+        volume,
+        &MediumSettings {
+            transfer,
+            mapping,
+            emission: Vec3::from(params.sigma.emission.unwrap_or([0.0; 3])),
+            phase,
+            reconstruction: params.volume.reconstruction,
+            brick_size: params.volume.brick_size,
+        },
+    )
+    .map_err(|e| match e {
+        Error::Parameter { ref key, .. } if key == "brick_size" => e.within("volume"),
+        other => other,
+    })
+}

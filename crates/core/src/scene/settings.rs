@@ -1,0 +1,247 @@
+//! Renderer settings (`[integrator]` and `[film]` in a scene) and their defaults.
+//!
+//! The defaults are the thesis's recommended values (§7.1.1, §8.1.3) where it gives them:
+//!
+//! | key | default | source |
+//! |---|---|---|
+//! | `volume_photons` | 40 000 | §8.1.3 "about 40 000 photons" |
+//! | `nused` | 150 | §8.1.1: no disco-ball artifacts from 150 on |
+//! | `maxdist` | 0.1 | §8.1.3: 10 % of the longest axis |
+//! | `stepsize` | 0.0005 | §8.1.3 |
+//! | `emission` / `single` / `multiple` | false / true / true | §7.1.1 |
+//! | `free_path` | `delta` | correct sampler; `thesis` reproduces §5.1/§7.1.2 |
+//! | `shadow` | `march` | §6: transmittance to the light by ray marching |
+//! | `quadrature` | `exact` | per-segment `(1 − e^{−σtΔx})/σt` instead of `Δx` |
+//! | `estimate` | `masked` | `σs(x)·Σ p ΔΦ/(σt(x_p)·V_m)`, `V_m` the medium's share of the gather sphere; `fluence` divides by the whole sphere, `albedo` and `thesis` (eq. 11) also assume σt constant in it |
+//! | `termination` | 0.001 | stop marching eye and shadow rays when transmittance < 0.1 % |
+//! | `shadow_cache`, `ms_cache` | 0 (off) | exact path by default |
+//! | `spp` | 1 | one jittered eye ray per pixel, as the thesis |
+//! | `reference_spp` | 64 | reference path tracer samples per pixel |
+//! | `seed` | 1 | |
+//! | `film.exposure` | 0 | stops applied before sRGB encoding |
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result, check_range};
+use crate::medium::FreePath;
+
+/// How shadow-ray transmittance to a light is estimated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ShadowEstimator {
+    /// Ray marching with `stepsize` (thesis §6).
+    March,
+    /// Unbiased ratio tracking.
+    Ratio,
+}
+
+/// Quadrature of the source term over one ray-marching segment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Quadrature {
+    /// `S·(1 − e^{−σt Δx})/σt`: exact for a segment with constant coefficients.
+    Exact,
+    /// `S·Δx` as in the thesis's combined formula (§6); overshoots when `σt·Δx` is large.
+    Riemann,
+}
+
+/// Radiance estimate form (§5.2, eq. 11).
+///
+/// Photons are stored at every interaction, i.e. at rate σt along their paths, so
+/// `Σ ΔΦ / V` estimates `σt·φ` averaged over the gather sphere (φ the fluence), while the
+/// in-scattering source term is `σs(x)·p·φ(x)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Estimate {
+    /// `σs(x)·Σ p·ΔΦ_p / (σt(x_p)·V_m)` with `V_m` the part of the gather sphere that holds
+    /// medium (σt > 0): photons exist only there, so dividing by the whole sphere dilutes
+    /// the estimate wherever the sphere reaches into empty space (thin bone, surfaces).
+    /// `V_m` is estimated from 32 fixed points in the sphere. The default.
+    Masked,
+    /// `σs(x)·Σ p·ΔΦ_p / (σt(x_p)·4/3 π r³)`: each photon's power over σt where it was
+    /// stored estimates the fluence, which is continuous across density edges; then the
+    /// local σs is applied. Consistent inside the medium, biased low near its boundaries.
+    Fluence,
+    /// `Λ·Σ p·ΔΦ/(4/3 π r³)`: fixes eq. 11's missing albedo factor but, like eq. 11, assumes
+    /// σt constant over the gather sphere, so dense tissue lights thin neighbours.
+    Albedo,
+    /// `Σ p·ΔΦ/(4/3 π r³)` exactly as eq. 11 ("σs cancels"): too bright by `1/Λ` and biased
+    /// at density edges.
+    Thesis,
+}
+
+/// Which renderer produces the image.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Volume photon mapping + ray marching (the thesis's method).
+    Photon,
+    /// The unbiased reference path tracer.
+    Reference,
+}
+
+/// `[integrator]` as written in a scene file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IntegratorParams {
+    /// `photon` or `reference`.
+    pub method: Method,
+    /// Photons emitted in total over all lights.
+    pub volume_photons: u64,
+    /// Photons used per radiance estimate.
+    pub nused: u32,
+    /// Largest gather radius (world units).
+    pub maxdist: f32,
+    /// Ray-marching step (world units).
+    pub stepsize: f32,
+    /// Add the emission layer.
+    pub emission: bool,
+    /// Add single scattering.
+    pub single: bool,
+    /// Add multiple scattering from the photon map.
+    pub multiple: bool,
+    /// Free-path rule for photons.
+    pub free_path: FreePath,
+    /// Shadow transmittance estimator.
+    pub shadow: ShadowEstimator,
+    /// Segment quadrature.
+    pub quadrature: Quadrature,
+    /// Radiance-estimate normalisation.
+    pub estimate: Estimate,
+    /// Transmittance below which eye and shadow rays stop marching.
+    pub termination: f32,
+    /// Per-light transmittance cache resolution along the longest axis (0 = off).
+    pub shadow_cache: u32,
+    /// Multiple-scattering cache resolution along the longest axis (0 = off).
+    pub ms_cache: u32,
+    /// Eye rays per pixel for the photon integrator.
+    pub spp: u32,
+    /// Samples per pixel for the reference path tracer.
+    pub reference_spp: u32,
+    /// Random seed.
+    pub seed: u64,
+}
+
+impl Default for IntegratorParams {
+    fn default() -> Self {
+        IntegratorParams {
+            method: Method::Photon,
+            volume_photons: 40_000,
+            nused: 150,
+            maxdist: 0.1,
+            stepsize: 0.0005,
+            emission: false,
+            single: true,
+            multiple: true,
+            free_path: FreePath::Delta,
+            shadow: ShadowEstimator::March,
+            quadrature: Quadrature::Exact,
+            estimate: Estimate::Masked,
+            termination: 1e-3,
+            shadow_cache: 0,
+            ms_cache: 0,
+            spp: 1,
+            reference_spp: 64,
+            seed: 1,
+        }
+    }
+}
+
+impl IntegratorParams {
+    /// Validates ranges; errors name the key (without the `integrator.` prefix).
+    pub fn validate(&self) -> Result<()> {
+        if self.volume_photons > 100_000_000 {
+            return Err(Error::parameter(
+                "volume_photons",
+                self.volume_photons,
+                "at most 100 000 000 photons",
+            ));
+        }
+        if self.multiple && self.method == Method::Photon && self.volume_photons == 0 {
+            return Err(Error::parameter(
+                "volume_photons",
+                0,
+                "at least 1 photon when `multiple = true`",
+            ));
+        }
+        if !(1..=100_000).contains(&self.nused) {
+            return Err(Error::parameter(
+                "nused",
+                self.nused,
+                "an integer in [1, 100000]",
+            ));
+        }
+        if !(self.maxdist.is_finite() && self.maxdist > 0.0 && self.maxdist <= 10.0) {
+            return Err(Error::parameter(
+                "maxdist",
+                self.maxdist,
+                "a radius in (0, 10] world units",
+            ));
+        }
+        if !(self.stepsize.is_finite() && self.stepsize >= 1e-6 && self.stepsize <= 1.0) {
+            return Err(Error::parameter(
+                "stepsize",
+                self.stepsize,
+                "a step in [1e-6, 1] world units",
+            ));
+        }
+        check_range("termination", self.termination as f64, 0.0, 0.5)?;
+        if self.shadow_cache != 0 && !(8..=1024).contains(&self.shadow_cache) {
+            return Err(Error::parameter(
+                "shadow_cache",
+                self.shadow_cache,
+                "0 (off) or a resolution in [8, 1024]",
+            ));
+        }
+        if self.ms_cache != 0 && !(8..=1024).contains(&self.ms_cache) {
+            return Err(Error::parameter(
+                "ms_cache",
+                self.ms_cache,
+                "0 (off) or a resolution in [8, 1024]",
+            ));
+        }
+        if !(1..=65_536).contains(&self.spp) {
+            return Err(Error::parameter(
+                "spp",
+                self.spp,
+                "an integer in [1, 65536]",
+            ));
+        }
+        if !(1..=1_048_576).contains(&self.reference_spp) {
+            return Err(Error::parameter(
+                "reference_spp",
+                self.reference_spp,
+                "an integer in [1, 1048576]",
+            ));
+        }
+        if !(self.single || self.multiple || self.emission) {
+            return Err(Error::parameter(
+                "single",
+                false,
+                "at least one of `single`, `multiple`, `emission` set to true",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// `[film]` as written in a scene file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FilmParams {
+    /// Exposure in stops applied before tone mapping to PNG.
+    pub exposure: f32,
+}
+
+impl Default for FilmParams {
+    fn default() -> Self {
+        FilmParams { exposure: 0.0 }
+    }
+}
+
+impl FilmParams {
+    /// Validates the exposure.
+    pub fn validate(&self) -> Result<()> {
+        check_range("exposure", self.exposure as f64, -40.0, 40.0)
+    }
+}

@@ -1,0 +1,9 @@
+//! File-system helpers: content checksums (cached), atomic writes, process memory.
+
+mod checksum;
+mod fsutil;
+mod memory;
+
+pub use checksum::{cache_dir, sha256_bytes, sha256_cached, sha256_file};
+pub use fsutil::{temp_sibling, write_atomic, write_atomic_with};
+pub use memory::{memory_budget_bytes, peak_memory_bytes};

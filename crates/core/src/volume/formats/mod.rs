@@ -1,0 +1,83 @@
+//! Volume file formats: headerless RAW, NRRD (attached or detached, raw or gzip) and
+//! MetaImage (`.mhd`/`.mha`, raw or zlib). Each reader returns [`LoadedVoxels`] — raw values
+//! with their type, spacing and data file — after checking the voxel count against the
+//! memory budget ([`check_dims`]) and before anything is normalised.
+
+mod metaimage;
+mod nrrd;
+mod raw;
+
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+
+pub use metaimage::{read as read_metaimage, write as write_metaimage};
+pub use nrrd::{read as read_nrrd, write as write_nrrd};
+pub use raw::{ByteOrder, RawLayout, VoxelType};
+
+/// Reads the voxels of a volume file, choosing the reader by extension (`.nrrd`/`.nhdr`,
+/// `.mhd`/`.mha`; anything else is headerless RAW and needs `raw_layout`).
+pub fn read_voxels(path: &Path, raw_layout: Option<&RawLayout>) -> Result<LoadedVoxels> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default();
+    match ext.as_str() {
+        "nrrd" | "nhdr" => read_nrrd(path),
+        "mhd" | "mha" => read_metaimage(path),
+        _ => {
+            let layout = raw_layout.ok_or_else(|| {
+                Error::format(
+                    path,
+                    "a headerless RAW file needs `dims` and `voxel` (or use a .nrrd/.nhdr/.mhd/.mha header)",
+                )
+            })?;
+            raw::read(path, layout)
+        }
+    }
+}
+
+/// Voxels as read from a file, before normalisation.
+#[derive(Debug, Clone)]
+pub struct LoadedVoxels {
+    /// Voxel counts.
+    pub dims: [usize; 3],
+    /// Raw values converted to `f32` (exact for 8- and 16-bit types).
+    pub values: Vec<f32>,
+    /// The stored type.
+    pub voxel_type: VoxelType,
+    /// Voxel spacing from the header, if it gives one.
+    pub spacing: Option<[f32; 3]>,
+    /// The file holding the voxels (differs from the header for detached headers).
+    pub data_path: PathBuf,
+    /// `raw`, `nrrd` or `metaimage`.
+    pub format: &'static str,
+}
+
+/// Validates dims (positive, product fits `usize` and the memory budget) before any read.
+pub fn check_dims(path: &Path, dims: [usize; 3]) -> Result<usize> {
+    if dims.contains(&0) {
+        return Err(Error::format(
+            path,
+            format!("dims {dims:?}: every dimension must be at least 1"),
+        ));
+    }
+    let count = dims
+        .iter()
+        .try_fold(1usize, |acc, &n| acc.checked_mul(n))
+        .ok_or_else(|| Error::format(path, format!("dims {dims:?}: voxel count overflows")))?;
+    let bytes = (count as u64).saturating_mul(8);
+    let budget = crate::util::memory_budget_bytes();
+    if bytes > budget {
+        return Err(Error::format(
+            path,
+            format!(
+                "dims {dims:?} = {count} voxels need about {} MiB of working memory, more than the {} MiB available; refusing to load",
+                bytes >> 20,
+                budget >> 20
+            ),
+        ));
+    }
+    Ok(count)
+}

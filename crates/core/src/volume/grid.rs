@@ -1,0 +1,223 @@
+//! A scalar grid placed in a world box, with trilinear or nearest reconstruction (§2.1).
+//!
+//! Convention (documented once, used everywhere): voxel `(i, j, k)` has its centre at
+//! `p0 + ((i + ½)/nx, (j + ½)/ny, (k + ½)/nz) · (p1 − p0)`. Lookups interpolate between
+//! centres and clamp to the edge voxel in the outer half-voxel shell; outside the box the
+//! value is 0 (no medium outside the volume).
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use crate::math::Aabb;
+
+/// How values between voxel centres are reconstructed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Reconstruction {
+    /// Trilinear interpolation of the 8 surrounding voxels (thesis §2.1, the default).
+    #[default]
+    Trilinear,
+    /// The value of the voxel whose cell contains the point (for comparison).
+    Nearest,
+}
+
+/// A dense `nx × ny × nz` grid of `f32`, x fastest: `index = x + nx·(y + ny·z)`.
+#[derive(Debug, Clone)]
+pub struct Grid {
+    dims: [usize; 3],
+    values: Vec<f32>,
+    bounds: Aabb,
+    /// `dims / extent`, cached for lookups.
+    scale: Vec3,
+}
+
+impl Grid {
+    /// A grid from values in x-fastest order. Panics if `values.len()` is not the product
+    /// of `dims` or a dimension is zero: callers validate user input before this point.
+    pub fn new(dims: [usize; 3], values: Vec<f32>, bounds: Aabb) -> Self {
+        assert!(dims.iter().all(|&n| n > 0), "grid dims must be positive");
+        assert_eq!(values.len(), dims[0] * dims[1] * dims[2], "grid size");
+        let scale = Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32) / bounds.extent();
+        Grid {
+            dims,
+            values,
+            bounds,
+            scale,
+        }
+    }
+
+    /// A grid of the same shape and placement as `self` with new values.
+    pub fn with_values(&self, values: Vec<f32>) -> Self {
+        Grid::new(self.dims, values, self.bounds)
+    }
+
+    /// Voxel counts along x, y, z.
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    /// The world box the grid spans.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// All values, x fastest.
+    pub fn values(&self) -> &[f32] {
+        &self.values
+    }
+
+    /// Consumes the grid and returns its values.
+    pub fn into_values(self) -> Vec<f32> {
+        self.values
+    }
+
+    /// Linear index of voxel `(x, y, z)`.
+    #[inline]
+    pub fn index(&self, x: usize, y: usize, z: usize) -> usize {
+        x + self.dims[0] * (y + self.dims[1] * z)
+    }
+
+    /// The value of voxel `(x, y, z)`.
+    #[inline]
+    pub fn voxel(&self, x: usize, y: usize, z: usize) -> f32 {
+        self.values[self.index(x, y, z)]
+    }
+
+    /// World position of the centre of voxel `(x, y, z)`.
+    pub fn voxel_center(&self, x: usize, y: usize, z: usize) -> Vec3 {
+        self.bounds.min + (Vec3::new(x as f32, y as f32, z as f32) + 0.5) / self.scale
+    }
+
+    /// The edge length of one voxel along each axis, in world units.
+    pub fn voxel_size(&self) -> Vec3 {
+        self.scale.recip()
+    }
+
+    /// Reconstructed value at world point `p` (0 outside the box).
+    #[inline]
+    pub fn sample(&self, p: Vec3, reconstruction: Reconstruction) -> f32 {
+        match reconstruction {
+            Reconstruction::Trilinear => self.trilinear(p),
+            Reconstruction::Nearest => self.nearest(p),
+        }
+    }
+
+    /// Trilinear reconstruction between voxel centres (§2.1).
+    #[inline]
+    pub fn trilinear(&self, p: Vec3) -> f32 {
+        if !self.bounds.contains(p) {
+            return 0.0;
+        }
+        self.trilinear_clamped(p)
+    }
+
+    /// Trilinear reconstruction for a point known to lie in the box (e.g. a marching sample
+    /// inside the ray's clipped interval); points outside read the nearest edge cell.
+    #[inline]
+    pub fn trilinear_clamped(&self, p: Vec3) -> f32 {
+        // Continuous voxel coordinate with centres at integers.
+        let c = (p - self.bounds.min) * self.scale - 0.5;
+        let [nx, ny, nz] = self.dims;
+        let fx = c.x.clamp(0.0, (nx - 1) as f32);
+        let fy = c.y.clamp(0.0, (ny - 1) as f32);
+        let fz = c.z.clamp(0.0, (nz - 1) as f32);
+        let x0 = (fx as usize).min(nx.saturating_sub(2));
+        let y0 = (fy as usize).min(ny.saturating_sub(2));
+        let z0 = (fz as usize).min(nz.saturating_sub(2));
+        let tx = fx - x0 as f32;
+        let ty = fy - y0 as f32;
+        let tz = fz - z0 as f32;
+        let dx = usize::from(nx > 1);
+        let sy = if ny > 1 { nx } else { 0 };
+        let sz = if nz > 1 { nx * ny } else { 0 };
+        let i = x0 + nx * (y0 + ny * z0);
+        let v = &self.values;
+        let c00 = v[i] + (v[i + dx] - v[i]) * tx;
+        let c10 = v[i + sy] + (v[i + sy + dx] - v[i + sy]) * tx;
+        let c01 = v[i + sz] + (v[i + sz + dx] - v[i + sz]) * tx;
+        let c11 = v[i + sy + sz] + (v[i + sy + sz + dx] - v[i + sy + sz]) * tx;
+        let c0 = c00 + (c10 - c00) * ty;
+        let c1 = c01 + (c11 - c01) * ty;
+        c0 + (c1 - c0) * tz
+    }
+
+    /// Nearest-voxel reconstruction.
+    #[inline]
+    pub fn nearest(&self, p: Vec3) -> f32 {
+        if !self.bounds.contains(p) {
+            return 0.0;
+        }
+        let c = (p - self.bounds.min) * self.scale;
+        let x = (c.x as usize).min(self.dims[0] - 1);
+        let y = (c.y as usize).min(self.dims[1] - 1);
+        let z = (c.z as usize).min(self.dims[2] - 1);
+        self.voxel(x, y, z)
+    }
+
+    /// Smallest and largest value.
+    pub fn min_max(&self) -> (f32, f32) {
+        self.values
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            })
+    }
+
+    /// The smallest strictly positive value (the thesis's `d_min`, §8.1.2), if any.
+    pub fn min_positive(&self) -> Option<f32> {
+        self.values
+            .iter()
+            .copied()
+            .filter(|v| *v > 0.0)
+            .fold(None, |m: Option<f32>, v| Some(m.map_or(v, |m| m.min(v))))
+    }
+
+    /// The arithmetic mean of all values.
+    pub fn mean(&self) -> f64 {
+        self.values.iter().map(|&v| v as f64).sum::<f64>() / self.values.len() as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp_x(n: usize) -> Grid {
+        let mut values = vec![0.0; n * 2 * 2];
+        for z in 0..2 {
+            for y in 0..2 {
+                for x in 0..n {
+                    values[x + n * (y + 2 * z)] = x as f32;
+                }
+            }
+        }
+        Grid::new([n, 2, 2], values, Aabb::unit())
+    }
+
+    #[test]
+    fn trilinear_hits_voxel_centres_and_interpolates() {
+        let g = ramp_x(4);
+        // Centres at x = 0.125, 0.375, 0.625, 0.875.
+        assert!((g.trilinear(Vec3::new(0.375, 0.5, 0.5)) - 1.0).abs() < 1e-6);
+        assert!((g.trilinear(Vec3::new(0.5, 0.3, 0.7)) - 1.5).abs() < 1e-6);
+        // Outer half-voxel shell clamps to the edge voxel.
+        assert!((g.trilinear(Vec3::new(0.01, 0.5, 0.5)) - 0.0).abs() < 1e-6);
+        assert!((g.trilinear(Vec3::new(0.99, 0.5, 0.5)) - 3.0).abs() < 1e-6);
+        assert_eq!(g.trilinear(Vec3::new(1.01, 0.5, 0.5)), 0.0);
+        assert_eq!(g.voxel_center(1, 0, 0), Vec3::new(0.375, 0.25, 0.25));
+    }
+
+    #[test]
+    fn nearest_picks_containing_cell() {
+        let g = ramp_x(4);
+        assert_eq!(g.nearest(Vec3::new(0.26, 0.5, 0.5)), 1.0);
+        assert_eq!(g.nearest(Vec3::new(1.0, 0.5, 0.5)), 3.0);
+    }
+
+    #[test]
+    fn single_voxel_axes_are_constant() {
+        let g = Grid::new([1, 1, 1], vec![0.7], Aabb::unit());
+        assert!((g.trilinear(Vec3::splat(0.3)) - 0.7).abs() < 1e-6);
+        assert_eq!(g.min_positive(), Some(0.7));
+    }
+}

@@ -1,0 +1,245 @@
+//! The metric columns of `cells.csv`: each a key (used in plot specifications), a header
+//! with its unit, and an extractor from a cell's record and its errors against the
+//! reference. Add a metric here and it appears in the CSV, the plots and the report.
+
+use crate::store::{CellRecord, ReferenceMetrics};
+
+/// A column of `cells.csv` computed from a record.
+pub(crate) struct MetricColumn {
+    /// Key used in plot specifications.
+    pub(crate) key: &'static str,
+    /// CSV header with unit.
+    pub(crate) header: &'static str,
+    /// Extractor.
+    pub(crate) value: fn(&CellRecord, Option<&ReferenceMetrics>) -> Option<f64>,
+}
+
+fn ratio(a: f64, b: f64) -> Option<f64> {
+    (b > 0.0).then(|| a / b)
+}
+
+fn extent_pct(r: &CellRecord, d: f64) -> f64 {
+    100.0 * d / r.provenance.sigma.largest_extent as f64
+}
+
+/// The metric columns, in CSV order.
+pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
+    MetricColumn {
+        key: "time_photons",
+        header: "time_photons [s]",
+        value: |r, _| Some(r.timings.photon_tracing),
+    },
+    MetricColumn {
+        key: "time_tree",
+        header: "time_tree [s]",
+        value: |r, _| Some(r.timings.tree_build),
+    },
+    MetricColumn {
+        key: "time_render",
+        header: "time_render [s]",
+        value: |r, _| Some(r.timings.render),
+    },
+    MetricColumn {
+        key: "time_metrics",
+        header: "time_metrics [s]",
+        value: |r, m| Some(r.timings.metrics + m.map_or(0.0, |m| m.seconds)),
+    },
+    MetricColumn {
+        key: "march_shared_by",
+        header: "march_shared_by [cells]",
+        value: |r, _| Some(r.timings.march_shared_by as f64),
+    },
+    MetricColumn {
+        key: "peak_memory",
+        header: "peak_memory [MiB]",
+        value: |r, _| r.peak_memory_bytes.map(|b| b as f64 / 1048576.0),
+    },
+    MetricColumn {
+        key: "photons_emitted",
+        header: "photons_emitted [count]",
+        value: |r, _| r.photons.as_ref().map(|p| p.emitted as f64),
+    },
+    MetricColumn {
+        key: "photons_stored",
+        header: "photons_stored [count]",
+        value: |r, _| r.photons.as_ref().map(|p| p.stored as f64),
+    },
+    MetricColumn {
+        key: "empirical_mfp",
+        header: "empirical_mfp [% extent]",
+        value: |r, _| {
+            r.photons
+                .as_ref()
+                .map(|p| extent_pct(r, p.mean_flight_distance))
+        },
+    },
+    MetricColumn {
+        key: "nominal_mfp",
+        header: "nominal_mfp [% extent]",
+        value: |r, _| Some(r.provenance.sigma.mean_free_path_percent as f64),
+    },
+    MetricColumn {
+        key: "median_mfp",
+        header: "median_mfp [% extent]",
+        value: |r, _| Some(r.provenance.sigma.median_free_path_percent as f64),
+    },
+    MetricColumn {
+        key: "sigma_t_dmin",
+        header: "sigma_t_dmin [1/world unit]",
+        value: |r, _| Some(r.provenance.sigma.sigma_t_at_dmin as f64),
+    },
+    MetricColumn {
+        key: "d_min",
+        header: "d_min [1]",
+        value: |r, _| Some(r.provenance.sigma.d_min as f64),
+    },
+    MetricColumn {
+        key: "mean_single",
+        header: "mean_single [W/(m2 sr)]",
+        value: |r, _| Some(r.mean_single),
+    },
+    MetricColumn {
+        key: "mean_multiple",
+        header: "mean_multiple [W/(m2 sr)]",
+        value: |r, _| Some(r.mean_multiple),
+    },
+    MetricColumn {
+        key: "mean_emission",
+        header: "mean_emission [W/(m2 sr)]",
+        value: |r, _| Some(r.mean_emission),
+    },
+    MetricColumn {
+        key: "ms_share",
+        header: "ms_share [1]",
+        value: |r, _| {
+            let total = r.mean_single + r.mean_multiple + r.mean_emission;
+            (total > 0.0).then(|| r.mean_multiple / total)
+        },
+    },
+    MetricColumn {
+        key: "rmse",
+        header: "rmse [W/(m2 sr)]",
+        value: |_, m| m.map(|m| m.rmse),
+    },
+    MetricColumn {
+        key: "rel_mse",
+        header: "rel_mse [1]",
+        value: |_, m| m.map(|m| m.rel_mse),
+    },
+    MetricColumn {
+        key: "ssim",
+        header: "ssim [1]",
+        value: |_, m| m.map(|m| m.ssim),
+    },
+    MetricColumn {
+        key: "flip",
+        header: "flip [1]",
+        value: |_, m| m.map(|m| m.flip),
+    },
+    MetricColumn {
+        key: "gradient_single",
+        header: "gradient_single [1/px]",
+        value: |r, _| Some(r.image.gradient_single),
+    },
+    MetricColumn {
+        key: "gradient_total",
+        header: "gradient_total [1/px]",
+        value: |r, _| Some(r.image.gradient_total),
+    },
+    MetricColumn {
+        key: "detail_single",
+        header: "detail_single [1]",
+        value: |r, _| Some(r.image.detail_single),
+    },
+    MetricColumn {
+        key: "detail_total",
+        header: "detail_total [1]",
+        value: |r, _| Some(r.image.detail_total),
+    },
+    MetricColumn {
+        key: "lit_by_multiple",
+        header: "lit_by_multiple [1]",
+        value: |r, _| Some(r.image.lit_by_multiple),
+    },
+    MetricColumn {
+        key: "depth_corr_single",
+        header: "depth_corr_single [1]",
+        value: |r, _| Some(r.image.depth_corr_single),
+    },
+    MetricColumn {
+        key: "depth_corr_total",
+        header: "depth_corr_total [1]",
+        value: |r, _| Some(r.image.depth_corr_total),
+    },
+    MetricColumn {
+        key: "clipped_total",
+        header: "clipped_total [1]",
+        value: |r, _| Some(r.image.clipped_total),
+    },
+    MetricColumn {
+        key: "luma_single",
+        header: "luma_single [1]",
+        value: |r, _| Some(r.image.luma_single),
+    },
+    MetricColumn {
+        key: "luma_total",
+        header: "luma_total [1]",
+        value: |r, _| Some(r.image.luma_total),
+    },
+    // Local contrast relative to brightness (Weber-like): whether multiple scattering adds
+    // detail, or only makes the same detail brighter (thesis §1.1, C8 "not more detail").
+    MetricColumn {
+        key: "contrast_single",
+        header: "contrast_single [1]",
+        value: |r, _| ratio(r.image.detail_single, r.image.luma_single),
+    },
+    MetricColumn {
+        key: "contrast_total",
+        header: "contrast_total [1]",
+        value: |r, _| ratio(r.image.detail_total, r.image.luma_total),
+    },
+    MetricColumn {
+        key: "opaque_share",
+        header: "opaque_share [1]",
+        value: |r, _| Some(r.image.opaque_share),
+    },
+    MetricColumn {
+        key: "disco_excess",
+        header: "disco_excess [1]",
+        value: |_, m| m.map(|m| m.disco_excess),
+    },
+    MetricColumn {
+        key: "disco_excess_blobs",
+        header: "disco_excess_blobs [count]",
+        value: |_, m| m.map(|m| m.disco_excess_blobs as f64),
+    },
+    MetricColumn {
+        key: "disco_energy",
+        header: "disco_energy [1]",
+        value: |r, _| Some(r.disco.energy),
+    },
+    MetricColumn {
+        key: "disco_blobs",
+        header: "disco_blobs [count]",
+        value: |r, _| Some(r.disco.blobs as f64),
+    },
+    MetricColumn {
+        key: "disco_area",
+        header: "disco_area [1]",
+        value: |r, _| Some(r.disco.area),
+    },
+];
+
+/// Whether `key` names a metric column.
+pub(crate) fn is_metric(key: &str) -> bool {
+    METRIC_COLUMNS.iter().any(|m| m.key == key)
+}
+
+/// Every metric key, comma-separated (for error messages).
+pub(crate) fn metric_keys() -> String {
+    METRIC_COLUMNS
+        .iter()
+        .map(|m| m.key)
+        .collect::<Vec<_>>()
+        .join(", ")
+}

@@ -1,0 +1,82 @@
+//! Films → numbers: what a finished cell's image says (disco-ball score, detail, lit
+//! regions, depth cues), its errors against the reference (RMSE, relMSE, SSIM, FLIP, disco
+//! excess), and the metric column schema that turns records into `cells.csv`.
+
+mod columns;
+mod disco;
+mod images;
+
+use std::time::Instant;
+
+use anyhow::Result;
+use glam::Vec3;
+use volphot::{Film, SceneParams};
+
+pub(crate) use columns::{METRIC_COLUMNS, MetricColumn, is_metric, metric_keys};
+pub(crate) use images::{compare, disco, disco_excess, displayed, image_stats, luminance};
+
+use crate::store::{
+    DiscoScore, ImageStats, OutputDir, read_reference_record, write_reference_metrics,
+};
+
+/// What a cell's own film says, without a reference.
+pub(crate) struct CellAnalysis {
+    /// The image the cell displays (its layers summed).
+    pub(crate) shown: Vec<Vec3>,
+    /// Disco-ball score of the multiple layer.
+    pub(crate) disco: DiscoScore,
+    /// Detail, lit regions and depth cues.
+    pub(crate) image: ImageStats,
+    /// Seconds spent.
+    pub(crate) seconds: f64,
+}
+
+/// Analyses a cell's film as its scene displays it.
+pub(crate) fn analyse_cell(film: &Film, params: &SceneParams) -> CellAnalysis {
+    let start = Instant::now();
+    let disco = disco(film);
+    let shown = displayed(film, params.integrator.multiple, params.integrator.emission);
+    let image = image_stats(film, &shown, params.film.exposure);
+    CellAnalysis {
+        shown,
+        disco,
+        image,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// Computes and stores `vs-<reference>.json` for a cell, if the reference exists. The
+/// reference shows the same layers as the cell (single only for `multiple = false`).
+pub(crate) fn compare_with_reference(
+    out: &OutputDir,
+    hash: &str,
+    key: &str,
+    params: &SceneParams,
+    film: &Film,
+) -> Result<()> {
+    let ref_dir = out.reference(key);
+    if read_reference_record(&ref_dir).is_err() {
+        return Ok(());
+    }
+    let reference = Film::read_exr(&ref_dir.join("reference.exr"))?;
+    let [w, h] = params.camera.resolution.map(|n| n as usize);
+    anyhow::ensure!(
+        reference.width() == w && reference.height() == h,
+        "reference {key} is {}×{}, cell is {w}×{h}",
+        reference.width(),
+        reference.height()
+    );
+    let ref_img = displayed(
+        &reference,
+        params.integrator.multiple,
+        params.integrator.emission,
+    );
+    let shown = displayed(film, params.integrator.multiple, params.integrator.emission);
+    let mut m = compare(&shown, &ref_img, w, h, params.film.exposure, key);
+    if params.integrator.multiple {
+        let excess = disco_excess(film, &reference);
+        m.disco_excess = excess.energy;
+        m.disco_excess_blobs = excess.blobs;
+    }
+    write_reference_metrics(&out.cell(hash), key, &m)
+}

@@ -1,0 +1,63 @@
+//! Where cells are rendered: behind one [`Backend`] trait (after hyperfine's `Executor`),
+//! chosen once per run. [`local::Local`] renders on this machine; [`slurm::Slurm`] submits a
+//! job array over the cells plus a collect job. Both write the same cells into the same
+//! output folder, so a report cannot tell them apart.
+
+mod local;
+mod slurm;
+
+use std::process::ExitCode;
+
+use anyhow::Result;
+
+pub(crate) use local::Local;
+pub(crate) use slurm::{Slurm, SlurmOptions, compress_ranges, plan_submission, print_jobs};
+
+use crate::plan::{CellSpec, Experiment, Quality};
+use crate::render::Selection;
+use crate::store::OutputDir;
+
+/// One run of an experiment: the plan and what to do with it.
+pub(crate) struct Run<'a> {
+    /// The experiment.
+    pub(crate) experiment: &'a Experiment,
+    /// Its cells for the chosen quality.
+    pub(crate) cells: &'a [CellSpec],
+    /// Their content addresses.
+    pub(crate) hashes: &'a [String],
+    /// The quality preset.
+    pub(crate) quality: Quality,
+    /// The output folder.
+    pub(crate) output: OutputDir,
+    /// The cells to render.
+    pub(crate) selection: Selection,
+    /// Hide progress bars.
+    pub(crate) quiet: bool,
+    /// Build the report when every cell of a full run is done.
+    pub(crate) report: bool,
+}
+
+/// How a run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Outcome {
+    /// Every selected cell is finished (or was submitted and the caller does not wait).
+    Success,
+    /// Some cells failed; their errors are in `failed/`.
+    CellsFailed,
+}
+
+impl Outcome {
+    /// The process exit code: 0, or 1 when cells failed.
+    pub(crate) fn exit_code(self) -> ExitCode {
+        match self {
+            Outcome::Success => ExitCode::SUCCESS,
+            Outcome::CellsFailed => ExitCode::from(1),
+        }
+    }
+}
+
+/// Renders the cells of a run, here or elsewhere.
+pub(crate) trait Backend {
+    /// Renders (or submits) the run's selected, unfinished cells.
+    fn execute(&self, run: &Run<'_>) -> Result<Outcome>;
+}

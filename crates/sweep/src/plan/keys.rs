@@ -1,0 +1,110 @@
+//! Dotted key paths in TOML tables (`integrator.nused`): setting, reading and flattening
+//! them, comparing axis values, and short labels for captions.
+
+use toml::{Table, Value};
+
+/// Flattens nested axis tables into dotted keys; leaves are arrays or range tables.
+pub(crate) fn flatten_axes(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
+    for (k, v) in table {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            Value::Table(t) if !t.contains_key("from") => flatten_axes(t, &key, out),
+            other => out.push((key, other.clone())),
+        }
+    }
+}
+
+/// Flattens nested override tables into `(dotted key, value)`.
+pub(crate) fn flatten_set(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
+    for (k, v) in table {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            // A table value is recursed into unless it is an inline value for a key that
+            // takes a table (phantom, box): those are set whole.
+            Value::Table(t) if !matches!(k.as_str(), "phantom" | "box") => {
+                flatten_set(t, &key, out)
+            }
+            other => out.push((key, other.clone())),
+        }
+    }
+}
+
+/// Compares axis values, treating 80 and 80.0 as equal.
+pub(crate) fn values_equal(a: &Value, b: &Value) -> bool {
+    match (a, b) {
+        (Value::Integer(x), Value::Float(y)) | (Value::Float(y), Value::Integer(x)) => {
+            (*x as f64) == *y
+        }
+        _ => a == b,
+    }
+}
+
+/// Sets a dotted key in a table, creating intermediate tables.
+pub(crate) fn set_key(
+    table: &mut Table,
+    key: &str,
+    value: Value,
+) -> std::result::Result<(), String> {
+    let parts: Vec<&str> = key.split('.').collect();
+    let mut t = table;
+    for (i, part) in parts.iter().enumerate() {
+        if i == parts.len() - 1 {
+            t.insert(part.to_string(), value);
+            return Ok(());
+        }
+        let entry = t
+            .entry(part.to_string())
+            .or_insert_with(|| Value::Table(Table::new()));
+        t = match entry {
+            Value::Table(inner) => inner,
+            other => {
+                return Err(format!(
+                    "cannot set `{key}`: `{}` is {other}, not a table",
+                    parts[..=i].join(".")
+                ));
+            }
+        };
+    }
+    Ok(())
+}
+
+/// Reads a dotted key from a table.
+pub(crate) fn get_key<'a>(table: &'a Table, key: &str) -> Option<&'a Value> {
+    let mut parts = key.split('.').peekable();
+    let mut t = table;
+    while let Some(part) = parts.next() {
+        let v = t.get(part)?;
+        if parts.peek().is_none() {
+            return Some(v);
+        }
+        t = v.as_table()?;
+    }
+    None
+}
+
+/// The last segment of a key path (`integrator.nused` → `nused`).
+pub(crate) fn short_key(key: &str) -> &str {
+    key.rsplit('.').next().unwrap_or(key)
+}
+
+/// A value as plain text (strings without quotes).
+pub(crate) fn value_text(v: &Value) -> String {
+    match v {
+        Value::String(s) => s.clone(),
+        Value::Float(f) => format!("{f}"),
+        other => other.to_string(),
+    }
+}
+
+/// Converts a TOML value to JSON for records.
+pub(crate) fn toml_to_json(v: &toml::Value) -> serde_json::Value {
+    serde_json::to_value(v).unwrap_or(serde_json::Value::Null)
+}

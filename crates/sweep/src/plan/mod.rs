@@ -1,0 +1,401 @@
+//! Experiment files → cells: the base scene, `[set]` overrides, axes (lists and ranges),
+//! zipped axes, excluded combinations and quality presets expand into validated cells;
+//! reference, comparison, plot and sheet blocks are checked against the axes. Every error
+//! points at the line and column of the experiment file.
+//!
+//! ```toml
+//! name = "artifacts"
+//! scene = "scenes/foot.toml"            # base scene (path relative to this file)
+//! max_cells = 100                        # larger grids need --yes
+//!
+//! [set]                                  # overrides applied to every cell
+//! "camera.resolution" = [256, 256]
+//!
+//! [axes]                                 # Cartesian product, in this order
+//! "integrator.nused" = [25, 50, 150, 300]
+//! "sigma.t" = { from = 6, to = 300, steps = 5, scale = "log" }
+//!
+//! [[zip]]                                # axes that move together (one axis of pairs)
+//! "sigma.t" = [40, 80]
+//! "integrator.nused" = [50, 150]
+//!
+//! [[exclude]]                            # drop cells matching every key
+//! "sigma.t" = 300
+//! "integrator.nused" = 25
+//!
+//! [quality.quick]                        # `--quick`: overrides and axis replacements
+//! set = { "camera.resolution" = [96, 96] }
+//! [quality.paper]                        # `--paper`
+//! axes = { "integrator.nused" = [25, 50, 100, 150, 200, 300] }
+//!
+//! [reference]                            # ground truth, shared by cells with equal physics
+//! method = "path"                        # or "photon"
+//! spp = 256
+//!
+//! [[compare]]                            # image pairs to difference
+//! kind = "layers"                        # single vs single+multiple (thesis Fig. 18)
+//! ```
+//!
+//! Axis keys are scene key paths (`integrator.nused`, `sigma.t`, `volume.dataset`, …) or
+//! `scene` (a list of scene files). Keys may be quoted (`"sigma.t"`) or written as nested
+//! tables (`sigma.t`).
+
+mod axes;
+mod cells;
+mod checks;
+mod file;
+mod keys;
+mod reference;
+mod source;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use toml::{Table, Value};
+use volphot::{Method, toml_error};
+
+use axes::Dimension;
+use file::{ExperimentFile, QualityPreset};
+use source::Source;
+
+pub(crate) use cells::CellSpec;
+pub(crate) use file::{
+    CompareKind, CompareSpec, PlotSpec, ReferenceMethod, ReferenceSpec, SheetLayer, SheetSpec,
+};
+pub(crate) use keys::{flatten_set, short_key, toml_to_json, value_text};
+pub(crate) use reference::{reference_key, reference_params};
+
+use crate::store::{PlanRecord, PlannedCell, VERSION, cell_hash};
+
+/// Quality presets that scale resolution and photon counts without editing the file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(crate) enum Quality {
+    /// A minute-scale look (`--quick`).
+    Quick,
+    /// The experiment file's own settings.
+    #[default]
+    Default,
+    /// Thesis resolution (512²) and the full grid (`--paper`).
+    Paper,
+}
+
+impl Quality {
+    /// The name recorded in `plan.json`.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Quality::Quick => "quick",
+            Quality::Default => "default",
+            Quality::Paper => "paper",
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+enum BaseScene {
+    File(PathBuf),
+    Inline(Table),
+}
+
+/// A parsed and checked experiment file.
+#[derive(Debug, Clone)]
+pub(crate) struct Experiment {
+    /// Name (file stem unless given).
+    pub(crate) name: String,
+    /// Free text.
+    pub(crate) description: String,
+    /// The file and its text (for located errors and the copy in the output folder).
+    pub(crate) source: Source,
+    /// sha256 of the file.
+    pub(crate) sha256: String,
+    /// Grid-size limit that requires `--yes`.
+    pub(crate) max_cells: usize,
+    /// Share photon maps and marches between cells.
+    pub(crate) share: bool,
+    /// Ground-truth configuration.
+    pub(crate) reference: Option<ReferenceSpec>,
+    /// Image comparisons.
+    pub(crate) compare: Vec<CompareSpec>,
+    /// Plot specifications (empty: automatic).
+    pub(crate) plots: Vec<PlotSpec>,
+    /// Contact sheets (empty: automatic).
+    pub(crate) sheets: Vec<SheetSpec>,
+    base: BaseScene,
+    set: Vec<(String, Value)>,
+    dimensions: Vec<Dimension>,
+    exclude: Vec<Vec<(String, Value)>>,
+    quality: BTreeMap<String, QualityPreset>,
+}
+
+impl Experiment {
+    /// Reads and checks an experiment file: parse → base scene → axes and zips → exclude
+    /// rules → quality presets → reference → comparisons → plots and sheets.
+    pub(crate) fn load(path: &Path) -> Result<Self> {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let file: ExperimentFile =
+            toml::from_str(&text).map_err(|e| anyhow::anyhow!(toml_error(&e, &text, path)))?;
+        let source = Source {
+            path: path.to_path_buf(),
+            text,
+        };
+        let name = file.name.clone().unwrap_or_else(|| {
+            path.file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "experiment".into())
+        });
+        let base = base_scene(&source, &file)?;
+        let mut set = Vec::new();
+        flatten_set(&file.set, "", &mut set);
+        let dimensions = axes::dimensions(&source, &file.axes, &file.zip)?;
+        let exclude: Vec<Vec<(String, Value)>> = file
+            .exclude
+            .iter()
+            .map(|t| {
+                let mut v = Vec::new();
+                flatten_set(t, "", &mut v);
+                v
+            })
+            .collect();
+        let axis_names = checks::AxisNames::new(&source, &dimensions);
+        for (ei, rule) in exclude.iter().enumerate() {
+            axis_names.require("exclude", ei, rule.iter().map(|(k, _)| k))?;
+        }
+        checks::quality_presets(&source, &file.quality)?;
+        checks::reference(&source, file.reference.as_ref())?;
+        checks::compare(&axis_names, &file.compare, file.reference.is_some())?;
+        checks::figures(&axis_names, &file.plots, &file.sheets)?;
+        Ok(Experiment {
+            name,
+            description: file.description,
+            sha256: volphot::sha256_bytes(source.text.as_bytes()),
+            source,
+            max_cells: file.max_cells,
+            share: file.share,
+            reference: file.reference,
+            compare: file.compare,
+            plots: file.plots,
+            sheets: file.sheets,
+            base,
+            set,
+            dimensions,
+            exclude,
+            quality: file.quality,
+        })
+    }
+
+    /// The experiment file.
+    pub(crate) fn path(&self) -> &Path {
+        &self.source.path
+    }
+
+    /// The folder holding the experiment file (base for relative paths).
+    pub(crate) fn base_dir(&self) -> PathBuf {
+        self.source
+            .path
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from("."))
+    }
+
+    /// Axis keys in grid order.
+    pub(crate) fn axis_keys(&self, quality: Quality) -> Vec<String> {
+        self.dimensions_for(quality)
+            .map(|d| d.iter().flat_map(|d| d.keys.clone()).collect())
+            .unwrap_or_default()
+    }
+
+    fn preset(&self, quality: Quality) -> Option<&QualityPreset> {
+        match quality {
+            Quality::Quick => self.quality.get("quick"),
+            Quality::Paper => self.quality.get("paper"),
+            Quality::Default => None,
+        }
+    }
+
+    /// The cells of the grid with their content addresses.
+    pub(crate) fn plan_with_hashes(
+        &self,
+        quality: Quality,
+    ) -> Result<(Vec<CellSpec>, Vec<String>)> {
+        let cells = self.plan(quality)?;
+        let hashes = cells
+            .iter()
+            .map(|c| cell_hash(&c.params, &c.base_dir))
+            .collect::<Result<Vec<_>>>()?;
+        Ok((cells, hashes))
+    }
+
+    /// The record of a plan (`plan.json`): cells, hashes, references and march keys.
+    pub(crate) fn plan_record(
+        &self,
+        cells: &[CellSpec],
+        hashes: &[String],
+        quality: Quality,
+    ) -> Result<PlanRecord> {
+        let mut planned = Vec::new();
+        for (spec, hash) in cells.iter().zip(hashes) {
+            let reference = self
+                .reference
+                .as_ref()
+                .map(|r| reference_key(spec, r))
+                .transpose()?;
+            planned.push(PlannedCell {
+                index: spec.index,
+                hash: hash.clone(),
+                label: spec.label(),
+                axes: spec
+                    .axes
+                    .iter()
+                    .map(|(k, v)| (k.clone(), toml_to_json(v)))
+                    .collect(),
+                reference,
+                march_key: volphot::sha256_bytes(volphot::march_key(&spec.params).as_bytes())[..12]
+                    .to_string(),
+                method: match spec.params.integrator.method {
+                    Method::Photon => "photon".into(),
+                    Method::Reference => "reference".into(),
+                },
+            });
+        }
+        Ok(PlanRecord {
+            experiment: self.name.clone(),
+            experiment_file: self.source.path.clone(),
+            experiment_sha256: self.sha256.clone(),
+            quality: quality.name().into(),
+            command: std::env::args().collect(),
+            version: VERSION.to_string(),
+            axes: self.axis_keys(quality),
+            cells: planned,
+        })
+    }
+}
+
+/// The base scene: a file, an inline table, or (with a `scene` axis) none.
+fn base_scene(source: &Source, file: &ExperimentFile) -> Result<BaseScene> {
+    match &file.scene {
+        Some(Value::String(s)) => Ok(BaseScene::File(PathBuf::from(s))),
+        Some(Value::Table(t)) => Ok(BaseScene::Inline(t.clone())),
+        Some(other) => Err(source.error(
+            "scene",
+            format!("`scene` = {other}: expected a scene file path or an inline table"),
+        )),
+        None => {
+            let mut axes = Vec::new();
+            keys::flatten_axes(&file.axes, "", &mut axes);
+            if !axes.iter().any(|(k, _)| k == "scene") {
+                return Err(source.error(
+                    "scene",
+                    "missing `scene`: a base scene file, an inline [scene] table, or a `scene` axis",
+                ));
+            }
+            Ok(BaseScene::Inline(Table::new()))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    const SCENE: &str = "[volume]\nphantom = { name = \"sphere\", resolution = [8, 8, 8] }\n[three_point]\n[camera]\nresolution = [64, 64]\n";
+
+    #[test]
+    fn product_zip_exclude_and_ranges() {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "s.toml", SCENE);
+        let exp = write(
+            dir.path(),
+            "e.toml",
+            r#"
+scene = "s.toml"
+[axes]
+integrator.nused = [25, 150]
+"sigma.t" = { from = 6, to = 300, steps = 3, scale = "log" }
+[[zip]]
+"integrator.maxdist" = [0.05, 0.1]
+"integrator.volume_photons" = [1000, 2000]
+[[exclude]]
+"integrator.nused" = 25
+"sigma.t" = 300
+"#,
+        );
+        let e = Experiment::load(&exp).unwrap();
+        let cells = e.plan(Quality::Default).unwrap();
+        // 2 × 3 × 2 = 12, minus the 2 cells with nused 25 and t 300.
+        assert_eq!(cells.len(), 10);
+        let t_values: Vec<String> = cells
+            .iter()
+            .map(|c| value_text(c.axis("sigma.t").unwrap()))
+            .collect();
+        assert!(
+            t_values.contains(&"6".to_string()) && t_values.contains(&"42".to_string()),
+            "{t_values:?}"
+        );
+        let c = &cells[1];
+        assert_eq!(c.params.integrator.nused, 25);
+        assert_eq!(c.params.integrator.maxdist, 0.1);
+        assert_eq!(c.params.integrator.volume_photons, 2000);
+        // --quick quarters the resolution (min 64), --paper is 512².
+        assert_eq!(
+            e.plan(Quality::Quick).unwrap()[0].params.camera.resolution,
+            [64, 64]
+        );
+        assert_eq!(
+            e.plan(Quality::Paper).unwrap()[0].params.camera.resolution,
+            [512, 512]
+        );
+    }
+
+    #[test]
+    fn errors_point_at_the_experiment_file() {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "s.toml", SCENE);
+        let cases = [
+            (
+                "scene = \"s.toml\"\n[axes]\n\"integrator.nused\" = [0, 5]\n",
+                "e.toml:3:1",
+                "`integrator.nused` = 0",
+            ),
+            (
+                "scene = \"s.toml\"\nmax_cell = 3\n",
+                "e.toml:2:1",
+                "max_cell",
+            ),
+            (
+                "scene = \"s.toml\"\n[axes]\n\"sigma.t\" = { from = 6, to = 300 }\n",
+                "e.toml:3",
+                "steps",
+            ),
+            (
+                "scene = \"s.toml\"\n[[zip]]\na = [1, 2]\nb = [1]\n",
+                "e.toml:",
+                "equal lengths",
+            ),
+            (
+                "scene = \"s.toml\"\n[axes]\n\"integrator.nused\" = [5]\n[[exclude]]\n\"integrator.nused\" = 5\n",
+                "e.toml:",
+                "empty",
+            ),
+            ("scene = \"missing.toml\"\n", "e.toml", "missing.toml"),
+            (
+                "scene = \"s.toml\"\n[axes]\n\"integrator.nsued\" = [5]\n",
+                "e.toml:3",
+                "nsued",
+            ),
+        ];
+        for (text, at, what) in cases {
+            let p = write(dir.path(), "e.toml", text);
+            let err = Experiment::load(&p).and_then(|e| e.plan(Quality::Default).map(|_| ()));
+            let msg = format!("{:#}", err.unwrap_err());
+            assert!(msg.contains(at), "{msg} should contain {at}");
+            assert!(msg.contains(what), "{msg} should name {what}");
+        }
+    }
+}

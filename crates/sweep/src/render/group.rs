@@ -1,0 +1,158 @@
+//! One march group: cells that differ only in multiple-scattering settings, rendered by one
+//! [`volphot::render_shared`] call and written cell by cell (film, PNGs, record, metrics).
+
+use anyhow::Result;
+use volphot::{Film, Layer, PhotonStats, Provenance, Scene, SearchPath, write_png};
+
+use super::Job;
+use super::scenes::Caches;
+use crate::analyse::{analyse_cell, compare_with_reference};
+use crate::store::{
+    CellLock, CellRecord, CellTimings, OutputDir, StagedDir, VERSION, hostname, is_done,
+    try_lock_cell, write_record,
+};
+
+/// Environment switch for tests: cell indices (comma-separated) whose rendering fails on
+/// purpose, to exercise failure reporting and resubmission.
+pub(crate) const FAIL_CELLS_ENV: &str = "VOLPHOT_FAIL_CELLS";
+
+/// What rendering one march group produced.
+#[derive(Default)]
+pub(crate) struct GroupOutcome {
+    pub(crate) rendered: usize,
+    pub(crate) photon_maps: usize,
+    pub(crate) failures: Vec<(usize, String)>,
+}
+
+/// Where a group is rendered and with what.
+pub(crate) struct GroupContext<'a> {
+    pub(crate) out: &'a OutputDir,
+    pub(crate) caches: &'a Caches,
+    pub(crate) search: &'a SearchPath,
+    pub(crate) fail_on: &'a [usize],
+}
+
+/// Renders one march group.
+pub(crate) fn render_group(
+    group: &[Job],
+    ctx: &GroupContext<'_>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<GroupOutcome> {
+    let mut failures = Vec::new();
+    // Per-cell locks: skip cells another process is rendering right now.
+    let mut jobs: Vec<(&Job, CellLock)> = Vec::new();
+    for job in group {
+        if ctx.fail_on.contains(&job.spec.index) {
+            failures.push((
+                job.spec.index,
+                format!("failure injected by {FAIL_CELLS_ENV}"),
+            ));
+            continue;
+        }
+        let Some(lock) = try_lock_cell(ctx.out, &job.hash)? else {
+            continue;
+        };
+        if !is_done(&ctx.out.cell(&job.hash)) {
+            jobs.push((job, lock));
+        }
+    }
+    if jobs.is_empty() {
+        return Ok(GroupOutcome {
+            failures,
+            ..Default::default()
+        });
+    }
+    // The group's scene: any cell's (they differ only in multiple-scattering settings),
+    // with multiple scattering on when any cell wants it.
+    let first = &jobs[0].0.spec;
+    let mut params = first.params.clone();
+    params.integrator.multiple = jobs.iter().any(|(j, _)| j.spec.params.integrator.multiple);
+    let scene = ctx.caches.scene(&params, &first.base_dir, ctx.search)?;
+    let integrators: Vec<_> = jobs
+        .iter()
+        .map(|(j, _)| j.spec.params.integrator.clone())
+        .collect();
+    let shared = volphot::render_shared(&scene, &integrators, progress)?;
+    let mut rendered = 0;
+    // The per-cell locks in `jobs` are held until the cells are written.
+    for ((job, _lock), result) in jobs.iter().zip(&shared.films) {
+        let timings = CellTimings {
+            photon_tracing: result.photon_seconds,
+            tree_build: result.tree_seconds,
+            render: shared.render_seconds,
+            metrics: 0.0,
+            march_shared_by: jobs.len(),
+            map_shared_by: result.map_shared_by,
+        };
+        match write_cell(
+            job,
+            &scene,
+            &result.film,
+            result.photons.clone(),
+            timings,
+            ctx.out,
+        ) {
+            Ok(()) => rendered += 1,
+            Err(e) => failures.push((job.spec.index, format!("{e:#}"))),
+        }
+    }
+    Ok(GroupOutcome {
+        rendered,
+        photon_maps: shared.photon_maps,
+        failures,
+    })
+}
+
+/// Writes a finished cell: film, PNGs, metrics, record.
+fn write_cell(
+    job: &Job,
+    scene: &Scene,
+    film: &Film,
+    photons: Option<PhotonStats>,
+    mut timings: CellTimings,
+    out: &OutputDir,
+) -> Result<()> {
+    anyhow::ensure!(
+        film.is_finite(),
+        "cell {} rendered non-finite pixels",
+        job.spec.index
+    );
+    let p = &job.spec.params;
+    let analysis = analyse_cell(film, p);
+    timings.metrics = analysis.seconds;
+    let staged = StagedDir::new(&out.cell(&job.hash))?;
+    let dir = staged.path();
+    let (w, h) = (film.width(), film.height());
+    let exposure = p.film.exposure;
+    film.write_exr(&dir.join("film.exr"))?;
+    write_png(&dir.join("total.png"), w, h, &analysis.shown, exposure)?;
+    for layer in [Layer::Single, Layer::Multiple] {
+        let file = dir.join(format!("{}.png", layer.name()));
+        write_png(&file, w, h, film.layer(layer), exposure)?;
+    }
+    let record = CellRecord {
+        index: job.spec.index,
+        hash: job.hash.clone(),
+        label: job.spec.label(),
+        axes: job.axes_json(),
+        provenance: Provenance::of(scene),
+        photons,
+        timings,
+        peak_memory_bytes: volphot::peak_memory_bytes(),
+        mean_single: film.mean(Layer::Single),
+        mean_multiple: film.mean(Layer::Multiple),
+        mean_emission: film.mean(Layer::Emission),
+        disco: analysis.disco,
+        image: analysis.image,
+        version: VERSION.to_string(),
+        threads: rayon::current_num_threads(),
+        host: hostname(),
+    };
+    write_record(dir, &record)?;
+    staged.commit()?;
+    let _ = std::fs::remove_file(out.failure(&job.hash));
+    if let Some(key) = &job.reference {
+        compare_with_reference(out, &job.hash, key, p, film)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,379 @@
+//! Cells → films: rendering the selected, unfinished cells of a plan into an output folder.
+//!
+//! Work is shared where the renderer allows it without changing results:
+//! * volumes and media are loaded once per run and shared by every cell that uses them;
+//! * cells that differ only in multiple-scattering parameters (`volume_photons`, `nused`,
+//!   `maxdist`, `free_path`, `estimate`, `multiple`) are rendered by ONE march that yields a
+//!   film per cell — one eye-ray pass, one single-scattering layer, and per photon map one
+//!   k-NN query per sample serving every `nused`/`maxdist`;
+//! * cells that differ only in render-time parameters use one photon map.
+//!
+//! References are rendered first (every cell's metrics need its reference). Each cell's
+//! folder is written under a temporary name and renamed when complete; a rerun skips
+//! finished cells.
+
+mod group;
+mod reference;
+mod scenes;
+
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+use anyhow::Result;
+use volphot::{Method, SearchPath};
+
+pub(crate) use group::FAIL_CELLS_ENV;
+use group::{GroupContext, GroupOutcome, render_group};
+use reference::{ReferenceJob, ensure_reference};
+use scenes::Caches;
+
+use crate::plan::{CellSpec, Experiment, toml_to_json};
+use crate::store::{OutputDir, PlanRecord, clean_stale, hostname, is_done};
+
+/// Which cells of a plan a run renders.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum Selection {
+    /// Every cell.
+    All,
+    /// These plan indices (sorted, unique).
+    Cells(Vec<usize>),
+}
+
+impl Selection {
+    /// The selected indices of a plan with `planned` cells.
+    pub(crate) fn indices(&self, planned: usize) -> Vec<usize> {
+        match self {
+            Selection::All => (0..planned).collect(),
+            Selection::Cells(v) => v.clone(),
+        }
+    }
+}
+
+/// The cells a run asks for, parsed from `--cells` or `--shard`; checked against the plan
+/// by [`CellFilter::resolve`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum CellFilter {
+    /// Every cell.
+    All,
+    /// `--cells 3,7-9`: inclusive ranges, with the text as given (for errors).
+    Cells {
+        text: String,
+        ranges: Vec<(usize, usize)>,
+    },
+    /// `--shard i/n`: the cells whose index is `i` modulo `n`.
+    Shard { index: usize, count: usize },
+}
+
+impl CellFilter {
+    /// Parses `3,7-9`.
+    pub(crate) fn parse_cells(text: &str) -> Result<Self> {
+        let mut ranges = Vec::new();
+        for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            let (a, b) = part.split_once('-').unwrap_or((part, part));
+            let parse = |s: &str| -> Result<usize> {
+                s.trim().parse::<usize>().map_err(|_| {
+                    anyhow::anyhow!(
+                        "--cells `{text}`: `{}` is not a cell index (expected e.g. 3,7-9)",
+                        s.trim()
+                    )
+                })
+            };
+            let (a, b) = (parse(a)?, parse(b)?);
+            anyhow::ensure!(a <= b, "--cells `{text}`: range {a}-{b} is reversed");
+            ranges.push((a, b));
+        }
+        anyhow::ensure!(!ranges.is_empty(), "--cells `{text}`: no cells selected");
+        Ok(CellFilter::Cells {
+            text: text.to_string(),
+            ranges,
+        })
+    }
+
+    /// Parses `i/n` (0-based shard `i` of `n`).
+    pub(crate) fn parse_shard(text: &str) -> Result<Self> {
+        let (index, count) = text
+            .split_once('/')
+            .and_then(|(i, n)| {
+                Some((
+                    i.trim().parse::<usize>().ok()?,
+                    n.trim().parse::<usize>().ok()?,
+                ))
+            })
+            .ok_or_else(|| anyhow::anyhow!("--shard `{text}`: expected i/n, e.g. 2/8"))?;
+        anyhow::ensure!(
+            count >= 1 && index < count,
+            "--shard `{text}`: need 0 <= i < n"
+        );
+        Ok(CellFilter::Shard { index, count })
+    }
+
+    /// The selection in a plan of `planned` cells; a cell beyond the plan is an error.
+    pub(crate) fn resolve(&self, planned: usize) -> Result<Selection> {
+        match self {
+            CellFilter::All => Ok(Selection::All),
+            CellFilter::Cells { text, ranges } => {
+                let mut out = Vec::new();
+                for &(a, b) in ranges {
+                    anyhow::ensure!(
+                        b < planned,
+                        "--cells `{text}`: cell {b} does not exist (the plan has cells 0-{})",
+                        planned.saturating_sub(1)
+                    );
+                    out.extend(a..=b);
+                }
+                out.sort_unstable();
+                out.dedup();
+                Ok(Selection::Cells(out))
+            }
+            CellFilter::Shard { index, count } => Ok(Selection::Cells(
+                (0..planned).filter(|c| c % count == *index).collect(),
+            )),
+        }
+    }
+}
+
+/// Options of a run, validated.
+#[derive(Debug, Clone)]
+pub(crate) struct RenderOptions {
+    /// Output folder.
+    pub(crate) output: OutputDir,
+    /// The cells to render.
+    pub(crate) selection: Selection,
+    /// Groups rendered at once.
+    pub(crate) jobs: usize,
+    /// Hide progress bars.
+    pub(crate) quiet: bool,
+}
+
+/// What a run did.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct RunSummary {
+    /// Cells in the plan.
+    pub(crate) planned: usize,
+    /// Cells selected for this run.
+    pub(crate) selected: usize,
+    /// Cells already finished before the run.
+    pub(crate) skipped: usize,
+    /// Cells rendered now.
+    pub(crate) rendered: usize,
+    /// Cells that failed (with their errors).
+    pub(crate) failed: Vec<(usize, String)>,
+    /// Marches run (each produced one or more cells).
+    pub(crate) marches: usize,
+    /// Photon maps built.
+    pub(crate) photon_maps: usize,
+    /// References rendered or refined.
+    pub(crate) references: usize,
+    /// Wall-clock seconds.
+    pub(crate) seconds: f64,
+}
+
+/// A cell to render now.
+pub(crate) struct Job {
+    spec: CellSpec,
+    hash: String,
+    reference: Option<String>,
+}
+
+impl Job {
+    fn axes_json(&self) -> Vec<(String, serde_json::Value)> {
+        self.spec
+            .axes
+            .iter()
+            .map(|(k, v)| (k.clone(), toml_to_json(v)))
+            .collect()
+    }
+}
+
+/// Renders the selected, unfinished cells of `cells` into the output folder.
+pub(crate) fn render_cells(
+    exp: &Experiment,
+    cells: &[CellSpec],
+    plan: &PlanRecord,
+    opts: &RenderOptions,
+) -> Result<RunSummary> {
+    let start = Instant::now();
+    let out = &opts.output;
+    std::fs::create_dir_all(out.root().join("cells"))?;
+    clean_stale(&out.root().join("cells"));
+    clean_stale(&out.root().join("references"));
+    let selected = opts.selection.indices(cells.len());
+    let mut summary = RunSummary {
+        planned: cells.len(),
+        selected: selected.len(),
+        ..Default::default()
+    };
+    let mut jobs = Vec::new();
+    for &i in &selected {
+        if is_done(&out.cell(&plan.cells[i].hash)) {
+            summary.skipped += 1;
+            continue;
+        }
+        jobs.push(Job {
+            spec: cells[i].clone(),
+            hash: plan.cells[i].hash.clone(),
+            reference: plan.cells[i].reference.clone(),
+        });
+    }
+    if !jobs.is_empty() {
+        let search = SearchPath::from_env();
+        let caches = Caches::default();
+        let multi = crate::progress::multi(opts.quiet);
+        summary.references = render_references(exp, &jobs, out, &caches, &search, &multi)?;
+        let groups = march_groups(jobs, exp.share);
+        let ctx = GroupContext {
+            out,
+            caches: &caches,
+            search: &search,
+            fail_on: &failures_to_inject(),
+        };
+        for outcome in render_groups(&groups, &ctx, opts.jobs, &multi) {
+            summary.rendered += outcome.rendered;
+            summary.photon_maps += outcome.photon_maps;
+            summary.marches += usize::from(outcome.rendered > 0);
+            summary.failed.extend(outcome.failures);
+        }
+        summary.failed.sort();
+    }
+    summary.seconds = start.elapsed().as_secs_f64();
+    Ok(summary)
+}
+
+/// Cells whose rendering fails on purpose ([`FAIL_CELLS_ENV`]).
+fn failures_to_inject() -> Vec<usize> {
+    std::env::var(FAIL_CELLS_ENV)
+        .ok()
+        .map(|v| v.split(',').filter_map(|s| s.trim().parse().ok()).collect())
+        .unwrap_or_default()
+}
+
+/// Renders the references the jobs need, each once; returns how many were rendered.
+fn render_references(
+    exp: &Experiment,
+    jobs: &[Job],
+    out: &OutputDir,
+    caches: &Caches,
+    search: &SearchPath,
+    multi: &indicatif::MultiProgress,
+) -> Result<usize> {
+    let Some(spec) = &exp.reference else {
+        return Ok(0);
+    };
+    let mut needed: Vec<(&Job, &String)> = Vec::new();
+    for job in jobs {
+        if let Some(key) = &job.reference
+            && !needed.iter().any(|(_, k)| *k == key)
+        {
+            needed.push((job, key));
+        }
+    }
+    let mut rendered = 0;
+    for (job, key) in needed {
+        let reference = ReferenceJob {
+            out,
+            key,
+            cell: &job.spec,
+            spec,
+        };
+        if ensure_reference(&reference, caches, search, multi)? {
+            rendered += 1;
+        }
+    }
+    Ok(rendered)
+}
+
+/// Groups jobs that share a march (photon-mapping cells with equal [`volphot::march_key`]
+/// when the experiment shares work).
+fn march_groups(jobs: Vec<Job>, share: bool) -> Vec<Vec<Job>> {
+    let mut groups: Vec<(String, Vec<Job>)> = Vec::new();
+    for job in jobs {
+        let key = volphot::march_key(&job.spec.params);
+        let shareable = share && job.spec.params.integrator.method == Method::Photon;
+        match groups.iter_mut().find(|(k, g)| {
+            shareable && g[0].spec.params.integrator.method == Method::Photon && *k == key
+        }) {
+            Some((_, g)) => g.push(job),
+            None => groups.push((key, vec![job])),
+        }
+    }
+    groups.into_iter().map(|(_, g)| g).collect()
+}
+
+/// Renders the groups, `jobs` at a time, each with its own progress bar; failures are
+/// written to `failed/<hash>.txt` and reported.
+fn render_groups(
+    groups: &[Vec<Job>],
+    ctx: &GroupContext<'_>,
+    jobs: usize,
+    multi: &indicatif::MultiProgress,
+) -> Vec<GroupOutcome> {
+    let total = groups.iter().map(Vec::len).sum::<usize>() as u64;
+    let overall = crate::progress::bar(multi, total, "cells", "cells");
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<GroupOutcome>> = Mutex::new(Vec::new());
+    let render_one = |group: &[Job]| -> GroupOutcome {
+        let rows = group[0].spec.params.camera.resolution[1] as u64;
+        let bar = crate::progress::bar(
+            multi,
+            rows,
+            &format!("cell {}", group[0].spec.index),
+            "rows",
+        );
+        let outcome = render_group(group, ctx, &|rows| bar.set_position(rows));
+        bar.finish_and_clear();
+        multi.remove(&bar);
+        let outcome = outcome.unwrap_or_else(|e| GroupOutcome {
+            failures: group
+                .iter()
+                .map(|j| (j.spec.index, format!("{e:#}")))
+                .collect(),
+            ..Default::default()
+        });
+        record_failures(group, &outcome, ctx.out, multi);
+        overall.inc(group.len() as u64);
+        outcome
+    };
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.max(1).min(groups.len()) {
+            scope.spawn(|| {
+                while let Some(group) = groups.get(next.fetch_add(1, Ordering::Relaxed)) {
+                    let r = render_one(group);
+                    results.lock().expect("results lock").push(r);
+                }
+            });
+        }
+    });
+    overall.finish_and_clear();
+    results.into_inner().expect("results lock")
+}
+
+/// Writes each failed cell's error to `failed/<hash>.txt` and prints it.
+fn record_failures(
+    group: &[Job],
+    outcome: &GroupOutcome,
+    out: &OutputDir,
+    multi: &indicatif::MultiProgress,
+) {
+    for (index, message) in &outcome.failures {
+        let Some(job) = group.iter().find(|j| j.spec.index == *index) else {
+            continue;
+        };
+        let text = format!(
+            "cell {index} ({}) failed on {}:\n{message}\n",
+            job.spec.label(),
+            hostname()
+        );
+        let _ = volphot::write_atomic(&out.failure(&job.hash), text.as_bytes());
+        multi.suspend(|| eprintln!("cell {index} failed: {message}"));
+    }
+}
+
+/// Builds a rayon pool with `threads` workers (all cores when `None`).
+pub(crate) fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        builder = builder.num_threads(n);
+    }
+    Ok(builder.build()?)
+}

@@ -1,0 +1,106 @@
+//! References: rendered (or refined to more samples) under their own lock, so parallel
+//! runs and cluster tasks share one reference per physics.
+
+use std::time::Instant;
+
+use anyhow::Result;
+use volphot::{Film, ReferenceAccumulator, Scene, SearchPath, write_png};
+
+use super::scenes::Caches;
+use crate::plan::{CellSpec, ReferenceMethod, ReferenceSpec, reference_params};
+use crate::store::{
+    OutputDir, ReferenceRecord, StagedDir, VERSION, lock_reference, read_reference_record,
+    write_reference_record,
+};
+
+/// What a reference needs: where it goes, the cell that defines its physics, how it is made.
+pub(crate) struct ReferenceJob<'a> {
+    pub(crate) out: &'a OutputDir,
+    pub(crate) key: &'a str,
+    pub(crate) cell: &'a CellSpec,
+    pub(crate) spec: &'a ReferenceSpec,
+}
+
+/// Renders (or refines) a reference under its own lock; returns whether work was done.
+pub(crate) fn ensure_reference(
+    job: &ReferenceJob<'_>,
+    caches: &Caches,
+    search: &SearchPath,
+    multi: &indicatif::MultiProgress,
+) -> Result<bool> {
+    let dir = job.out.reference(job.key);
+    // Blocking: another task may be rendering this reference right now.
+    let lock = lock_reference(job.out, job.key)?;
+    let params = reference_params(&job.cell.params, job.spec)?;
+    let existing = read_reference_record(&dir).ok();
+    if let Some(r) = &existing
+        && (job.spec.method != ReferenceMethod::Path || r.passes >= job.spec.spp)
+    {
+        return Ok(false);
+    }
+    let scene = caches.scene(&params, &job.cell.base_dir, search)?;
+    let bar = crate::progress::bar(multi, scene.camera().height() as u64, "reference", "rows");
+    let start = Instant::now();
+    let progress = |rows| bar.set_position(rows);
+    let (film, passes) = match job.spec.method {
+        ReferenceMethod::Path => {
+            let mut acc = match &existing {
+                Some(r) => ReferenceAccumulator::from_film(
+                    &Film::read_exr(&dir.join("reference.exr"))?,
+                    r.passes,
+                )?,
+                None => ReferenceAccumulator::new(
+                    scene.camera().width() as usize,
+                    scene.camera().height() as usize,
+                ),
+            };
+            let more = job.spec.spp - acc.passes();
+            acc.add_passes(&scene, more, &progress)?;
+            (acc.film(), acc.passes())
+        }
+        ReferenceMethod::Photon => (volphot::render(&scene, &progress)?.film, 0),
+    };
+    bar.finish_and_clear();
+    multi.remove(&bar);
+    anyhow::ensure!(
+        film.is_finite(),
+        "reference {} has non-finite pixels",
+        job.key
+    );
+    let record = ReferenceRecord {
+        key: job.key.to_string(),
+        method: job.spec.method,
+        passes,
+        seconds: start.elapsed().as_secs_f64() + existing.as_ref().map_or(0.0, |r| r.seconds),
+        scene: params,
+        volume: scene.volume_source().clone(),
+        version: VERSION.to_string(),
+    };
+    write_reference(&dir, &film, &scene, &record)?;
+    drop(lock);
+    Ok(true)
+}
+
+/// Writes `reference.exr`, `reference.png` and `reference.json` into a staged folder and
+/// replaces the old reference with it.
+fn write_reference(
+    dir: &std::path::Path,
+    film: &Film,
+    scene: &Scene,
+    record: &ReferenceRecord,
+) -> Result<()> {
+    let staged = StagedDir::new(dir)?;
+    film.write_exr(&staged.path().join("reference.exr"))?;
+    write_png(
+        &staged.path().join("reference.png"),
+        film.width(),
+        film.height(),
+        &film.total(),
+        scene.film().exposure,
+    )?;
+    write_reference_record(staged.path(), record)?;
+    if dir.exists() {
+        std::fs::remove_dir_all(dir)?;
+    }
+    staged.commit()
+}

@@ -1,0 +1,144 @@
+//! Collecting an output folder: every planned cell's record, errors against its reference
+//! (computed now when missing) and failure, read from disk alone.
+
+use std::path::Path;
+
+use anyhow::Result;
+use volphot::Film;
+
+use crate::analyse::{compare_with_reference, displayed, image_stats};
+use crate::store::{
+    CellRecord, IMAGE_STATS_VERSION, OutputDir, PlanRecord, PlannedCell, ReferenceMetrics, is_done,
+    read_plan, read_record, read_reference_metrics, read_reference_record, write_record,
+};
+
+/// One cell's collected state.
+pub(crate) struct Collected {
+    /// From the plan.
+    pub(crate) planned: PlannedCell,
+    /// Its record when finished.
+    pub(crate) record: Option<CellRecord>,
+    /// Errors against the reference.
+    pub(crate) reference: Option<ReferenceMetrics>,
+    /// Error text of a failed attempt.
+    pub(crate) failure: Option<String>,
+}
+
+impl Collected {
+    /// `done`, `failed` or `pending`.
+    pub(crate) fn status(&self) -> &'static str {
+        if self.record.is_some() {
+            "done"
+        } else if self.failure.is_some() {
+            "failed"
+        } else {
+            "pending"
+        }
+    }
+}
+
+/// Reads every planned cell's state; computes missing reference metrics when possible.
+pub(crate) fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
+    let plan = read_plan(out)?;
+    let mut cells = Vec::new();
+    for p in &plan.cells {
+        let dir = out.cell(&p.hash);
+        // The film is read only if something has to be recomputed from it, and then once.
+        let mut film = None;
+        let record = if is_done(&dir) {
+            let mut record = read_record(&dir)?;
+            if record.image.version != IMAGE_STATS_VERSION {
+                refresh_image_stats(&dir, &mut record, cell_film(&dir, &mut film)?)?;
+            }
+            Some(record)
+        } else {
+            None
+        };
+        let mut reference = None;
+        if let (Some(r), Some(key)) = (&record, &p.reference) {
+            reference = read_reference_metrics(&dir, key);
+            if reference.is_none() && read_reference_record(&out.reference(key)).is_ok() {
+                let film = cell_film(&dir, &mut film)?;
+                compare_with_reference(out, &p.hash, key, &r.provenance.scene, film)?;
+                reference = read_reference_metrics(&dir, key);
+            }
+        }
+        let failure = if record.is_none() {
+            std::fs::read_to_string(out.failure(&p.hash)).ok()
+        } else {
+            None
+        };
+        cells.push(Collected {
+            planned: p.clone(),
+            record,
+            reference,
+            failure,
+        });
+    }
+    Ok((plan, cells))
+}
+
+/// A cell's `film.exr`, read on first use.
+fn cell_film<'a>(dir: &Path, film: &'a mut Option<Film>) -> Result<&'a Film> {
+    if film.is_none() {
+        *film = Some(Film::read_exr(&dir.join("film.exr"))?);
+    }
+    Ok(film.as_ref().expect("just read"))
+}
+
+/// Recomputes a record's image statistics from its film (they are cheap next to the
+/// render) and stores the updated record, so older outputs gain newer columns.
+fn refresh_image_stats(dir: &Path, record: &mut CellRecord, film: &Film) -> Result<()> {
+    let p = &record.provenance.scene;
+    let shown = displayed(film, p.integrator.multiple, p.integrator.emission);
+    record.image = image_stats(film, &shown, p.film.exposure);
+    write_record(dir, record)
+}
+
+/// Whether a cell's axis values match a `where` table (numbers compare by value).
+pub(crate) fn matches(c: &PlannedCell, filter: &toml::Table) -> bool {
+    filter.iter().all(|(k, v)| {
+        let want = crate::plan::toml_to_json(v);
+        match (axis_value(c, k), want) {
+            (Some(a), b) if a == b => true,
+            (Some(serde_json::Value::Number(a)), serde_json::Value::Number(b)) => {
+                a.as_f64() == b.as_f64()
+            }
+            _ => false,
+        }
+    })
+}
+
+pub(crate) fn axis_value(c: &PlannedCell, key: &str) -> Option<serde_json::Value> {
+    c.axes
+        .iter()
+        .find(|(k, _)| k == key)
+        .map(|(_, v)| v.clone())
+}
+
+pub(crate) fn value_label(v: &serde_json::Value) -> String {
+    match v {
+        serde_json::Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+pub(crate) fn numeric(v: &serde_json::Value) -> Option<f64> {
+    v.as_f64()
+}
+
+/// The distinct values of axis `key` among `cells`, in plan order.
+pub(crate) fn distinct_values<'a, C: std::borrow::Borrow<Collected> + 'a>(
+    cells: impl IntoIterator<Item = &'a C>,
+    key: &str,
+) -> Vec<serde_json::Value> {
+    let mut out: Vec<serde_json::Value> = Vec::new();
+    for c in cells {
+        if let Some(v) = axis_value(&c.borrow().planned, key)
+            && !out.contains(&v)
+        {
+            out.push(v);
+        }
+    }
+    out
+}

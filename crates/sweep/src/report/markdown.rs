@@ -1,0 +1,252 @@
+//! `report.md`: what was run, the grid, provenance, figures, comparison tables, the cells
+//! table and failures — readable on a code host as it is.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use super::Figures;
+use super::collect::{Collected, distinct_values, value_label};
+use super::table::{Exporter, Field, MarkdownExporter, Table};
+use crate::analyse::METRIC_COLUMNS;
+use crate::plan::Experiment;
+use crate::store::{OutputDir, PlanRecord, read_reference_record};
+
+/// The metrics shown in the report's cells table (when any cell has them).
+const TABLE_METRICS: [&str; 11] = [
+    "empirical_mfp",
+    "nominal_mfp",
+    "mean_single",
+    "mean_multiple",
+    "ms_share",
+    "rmse",
+    "flip",
+    "ssim",
+    "disco_energy",
+    "disco_blobs",
+    "time_render",
+];
+
+/// Everything `report.md` is made of.
+pub(crate) struct Report<'a> {
+    pub(crate) out: &'a OutputDir,
+    pub(crate) plan: &'a PlanRecord,
+    pub(crate) cells: &'a [Collected],
+    pub(crate) table: &'a Table,
+    pub(crate) experiment: &'a Experiment,
+    pub(crate) figures: &'a Figures,
+}
+
+fn rel(root: &Path, path: &Path) -> String {
+    path.strip_prefix(root)
+        .unwrap_or(path)
+        .display()
+        .to_string()
+}
+
+impl Report<'_> {
+    /// The whole Markdown text.
+    pub(crate) fn markdown(&self) -> String {
+        let mut s = String::new();
+        self.header(&mut s);
+        self.grid(&mut s);
+        self.provenance(&mut s);
+        self.figures(&mut s);
+        self.cells_table(&mut s);
+        self.failures(&mut s);
+        s
+    }
+
+    fn failed(&self) -> Vec<&Collected> {
+        self.cells
+            .iter()
+            .filter(|c| c.status() == "failed")
+            .collect()
+    }
+
+    fn done(&self) -> usize {
+        self.cells.iter().filter(|c| c.record.is_some()).count()
+    }
+
+    fn header(&self, s: &mut String) {
+        let (plan, root) = (self.plan, self.out.root());
+        let done = self.done();
+        let failed = self.failed().len();
+        let _ = writeln!(s, "# {}\n", plan.experiment);
+        if !self.experiment.description.is_empty() {
+            let _ = writeln!(s, "{}\n", self.experiment.description.trim());
+        }
+        let _ = writeln!(
+            s,
+            "- cells: {} planned, {done} done, {failed} failed, {} pending",
+            self.cells.len(),
+            self.cells.len() - done - failed
+        );
+        let _ = writeln!(
+            s,
+            "- quality preset: `{}`; program version {}",
+            plan.quality, plan.version
+        );
+        let _ = writeln!(
+            s,
+            "- experiment file: `{}` (sha256 `{}`)",
+            plan.experiment_file.display(),
+            plan.experiment_sha256
+        );
+        let _ = writeln!(s, "- command: `{}`", plan.command.join(" "));
+        let _ = writeln!(
+            s,
+            "- rerun: `sweep run {} --output {}` (finished cells are skipped); regenerate this report: `sweep report {}`\n",
+            plan.experiment_file.display(),
+            root.display(),
+            root.display()
+        );
+    }
+
+    /// The axes and their values, and how much work sharing saved.
+    fn grid(&self, s: &mut String) {
+        let cells = self.cells;
+        let _ = writeln!(s, "## Grid\n");
+        for axis in &self.plan.axes {
+            let values: Vec<String> = distinct_values(cells, axis)
+                .iter()
+                .map(value_label)
+                .collect();
+            let _ = writeln!(s, "- `{axis}`: {}", values.join(", "));
+        }
+        let marches: std::collections::HashSet<&String> = cells
+            .iter()
+            .filter(|c| c.record.is_some())
+            .map(|c| &c.planned.march_key)
+            .collect();
+        let with_maps = || {
+            cells
+                .iter()
+                .filter_map(|c| c.record.as_ref())
+                .filter(|r| r.timings.map_shared_by > 0)
+        };
+        let maps = with_maps()
+            .map(|r| 1.0 / r.timings.map_shared_by as f64)
+            .sum::<f64>()
+            .round() as usize;
+        let _ = writeln!(
+            s,
+            "\nShared work: {done} finished cells came from {} march(es) (one eye-ray pass each) and about {maps} photon map(s) for the {} cells with multiple scattering; rendered one by one they would need {done} marches and {} maps.\n",
+            marches.len(),
+            with_maps().count(),
+            with_maps().count(),
+            done = self.done(),
+        );
+    }
+
+    /// Volumes and references.
+    fn provenance(&self, s: &mut String) {
+        let _ = writeln!(s, "## Provenance\n");
+        let mut volumes: Vec<String> = self
+            .cells
+            .iter()
+            .filter_map(|c| c.record.as_ref())
+            .map(|r| r.provenance.volume.describe())
+            .collect();
+        volumes.sort();
+        volumes.dedup();
+        for v in volumes {
+            let _ = writeln!(s, "- volume: {v}");
+        }
+        let mut refs: Vec<&String> = self
+            .cells
+            .iter()
+            .filter_map(|c| c.planned.reference.as_ref())
+            .collect();
+        refs.sort();
+        refs.dedup();
+        for key in refs {
+            if let Ok(r) = read_reference_record(&self.out.reference(key)) {
+                let _ = writeln!(
+                    s,
+                    "- reference `{key}`: {} with {} samples per pixel ({:.1} s)",
+                    r.method.name(),
+                    r.passes,
+                    r.seconds
+                );
+            } else {
+                let _ = writeln!(s, "- reference `{key}`: not rendered");
+            }
+        }
+    }
+
+    /// Contact sheets, plots, difference images and comparison tables.
+    fn figures(&self, s: &mut String) {
+        let root = self.out.root();
+        let mut section = |title: &str, items: &[(String, PathBuf)]| {
+            if items.is_empty() {
+                return;
+            }
+            let _ = writeln!(s, "\n## {title}\n");
+            for (caption, path) in items {
+                let _ = writeln!(s, "![{caption}]({})\n\n*{caption}*\n", rel(root, path));
+            }
+        };
+        section("Contact sheets", &self.figures.sheets);
+        section("Plots", &self.figures.plots);
+        section("Difference images", &self.figures.diffs);
+        for (title, t) in &self.figures.comparisons {
+            let _ = writeln!(s, "\n### Comparison {title}\n");
+            let _ = writeln!(s, "{}", markdown_table(t, vec![]));
+        }
+    }
+
+    /// The cells with their axes and the main metrics.
+    fn cells_table(&self, s: &mut String) {
+        let table = self.table;
+        let _ = writeln!(s, "\n## Cells\n");
+        let mut columns: Vec<usize> = vec![0, 2];
+        columns.extend(3..3 + self.plan.axes.len());
+        for key in TABLE_METRICS {
+            if let Some(i) = METRIC_COLUMNS.iter().position(|m| m.key == key) {
+                let col = table.headers.len() - METRIC_COLUMNS.len() + i;
+                if table.rows.iter().any(|r| r[col] != Field::Empty) {
+                    columns.push(col);
+                }
+            }
+        }
+        let _ = writeln!(s, "{}", markdown_table(table, columns));
+        let _ = writeln!(
+            s,
+            "All columns, with units: [cells.csv](cells.csv) ([cells.json](cells.json)).\n"
+        );
+    }
+
+    fn failures(&self, s: &mut String) {
+        let failed = self.failed();
+        if failed.is_empty() {
+            return;
+        }
+        let _ = writeln!(s, "## Failures\n");
+        for c in failed {
+            let first = c
+                .failure
+                .as_deref()
+                .unwrap_or("")
+                .lines()
+                .take(6)
+                .collect::<Vec<_>>()
+                .join("\n    ");
+            let _ = writeln!(
+                s,
+                "- cell {} ({}): see `{}`\n\n    {first}\n",
+                c.planned.index,
+                c.planned.label,
+                rel(self.out.root(), &self.out.failure(&c.planned.hash))
+            );
+        }
+    }
+}
+
+fn markdown_table(table: &Table, columns: Vec<usize>) -> String {
+    String::from_utf8_lossy(
+        &MarkdownExporter { columns }
+            .serialize(table)
+            .unwrap_or_default(),
+    )
+    .into_owned()
+}

@@ -1,0 +1,68 @@
+//! Numbers → report: `cells.csv` and `cells.json`, contact sheets, difference images,
+//! plots, `report.md` and a self-contained `report.html`. Works from the output folder
+//! alone, so `sweep report DIR` regenerates everything without rendering.
+
+mod chart;
+mod collect;
+mod diffs;
+mod figures;
+mod html;
+mod markdown;
+mod plots;
+mod sheets;
+mod table;
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+
+use collect::collect;
+use table::{CsvExporter, Exporter, JsonExporter, Table, cells_table};
+
+use crate::plan::Experiment;
+use crate::store::OutputDir;
+
+/// Everything a report links to.
+#[derive(Default)]
+pub(crate) struct Figures {
+    sheets: Vec<(String, PathBuf)>,
+    diffs: Vec<(String, PathBuf)>,
+    plots: Vec<(String, PathBuf)>,
+    comparisons: Vec<(String, Table)>,
+}
+
+/// Builds `cells.csv`, `cells.json`, figures, `report.md` and `report.html`.
+pub(crate) fn build_report(out: &OutputDir) -> Result<PathBuf> {
+    let (plan, cells) = collect(out)?;
+    let table = cells_table(&plan, &cells);
+    volphot::write_atomic(
+        &out.root().join("cells.csv"),
+        &CsvExporter.serialize(&table)?,
+    )?;
+    volphot::write_atomic(
+        &out.root().join("cells.json"),
+        &JsonExporter.serialize(&table)?,
+    )?;
+    let experiment = Experiment::load(&out.root().join("experiment.toml"))
+        .with_context(|| format!("{}: reading the experiment copy", out.root().display()))?;
+    std::fs::create_dir_all(out.figures())?;
+    let mut figures = Figures::default();
+    sheets::contact_sheets(out, &plan, &cells, &experiment, &mut figures)?;
+    diffs::layer_differences(out, &cells, &experiment, &mut figures)?;
+    diffs::axis_comparisons(out, &plan, &cells, &experiment, &mut figures)?;
+    plots::plots(out, &plan, &cells, &experiment, &mut figures)?;
+    let markdown = markdown::Report {
+        out,
+        plan: &plan,
+        cells: &cells,
+        table: &table,
+        experiment: &experiment,
+        figures: &figures,
+    }
+    .markdown();
+    volphot::write_atomic(&out.root().join("report.md"), markdown.as_bytes())?;
+    let html = html::html(out.root(), &markdown)?;
+    let path = out.root().join("report.html");
+    volphot::write_atomic(&path, html.as_bytes())?;
+    Ok(path)
+}

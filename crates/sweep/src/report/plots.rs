@@ -1,0 +1,168 @@
+//! Metric-vs-axis plots: the experiment's `[[plots]]`, or by default every numeric axis
+//! against the errors, the disco score, the multiple-scattering share and the render time,
+//! one line per value of another axis, averaged over the remaining axes.
+
+use std::collections::BTreeMap;
+
+use anyhow::Result;
+
+use super::Figures;
+use super::chart::{Plot, Series, write_plot};
+use super::collect::{Collected, axis_value, distinct_values, matches, numeric, value_label};
+use crate::analyse::{METRIC_COLUMNS, MetricColumn};
+use crate::plan::{Experiment, PlotSpec, short_key, value_text};
+use crate::store::{OutputDir, PlanRecord};
+
+fn plot_specs(plan: &PlanRecord, cells: &[Collected], experiment: &Experiment) -> Vec<PlotSpec> {
+    if !experiment.plots.is_empty() {
+        return experiment.plots.clone();
+    }
+    let has_reference = cells.iter().any(|c| c.reference.is_some());
+    let mut specs = Vec::new();
+    for x in &plan.axes {
+        let values = distinct_values(cells, x);
+        if values.len() < 2 || !values.iter().all(|v| numeric(v).is_some()) {
+            continue;
+        }
+        let positive = values.iter().all(|v| numeric(v).is_some_and(|n| n > 0.0));
+        let spread = values
+            .iter()
+            .filter_map(numeric)
+            .fold(f64::NEG_INFINITY, f64::max)
+            / values
+                .iter()
+                .filter_map(numeric)
+                .fold(f64::INFINITY, f64::min);
+        let mut y = vec![
+            "disco_energy".to_string(),
+            "ms_share".into(),
+            "time_render".into(),
+        ];
+        if has_reference {
+            y.insert(0, "rmse".into());
+            y.insert(1, "flip".into());
+        }
+        specs.push(PlotSpec {
+            x: x.clone(),
+            y,
+            series: plan.axes.iter().find(|a| *a != x).cloned(),
+            log_x: positive && spread > 20.0,
+            log_y: false,
+            filter: Default::default(),
+        });
+    }
+    specs
+}
+
+/// Writes every plot (PNG and SVG) into `figures/plots/`.
+pub(crate) fn plots(
+    out: &OutputDir,
+    plan: &PlanRecord,
+    cells: &[Collected],
+    experiment: &Experiment,
+    figures: &mut Figures,
+) -> Result<()> {
+    let dir = out.figures().join("plots");
+    std::fs::create_dir_all(&dir)?;
+    for (pi, spec) in plot_specs(plan, cells, experiment).iter().enumerate() {
+        let selected: Vec<&Collected> = cells
+            .iter()
+            .filter(|c| matches(&c.planned, &spec.filter))
+            .collect();
+        for metric in &spec.y {
+            let Some(column) = METRIC_COLUMNS.iter().find(|m| m.key == metric) else {
+                continue;
+            };
+            let series = series(spec, column, &selected);
+            if series.is_empty() {
+                continue;
+            }
+            let plot = Plot {
+                title: title(plan, spec, metric),
+                x_label: spec.x.clone(),
+                y_label: column.header.to_string(),
+                series,
+                log_x: spec.log_x,
+                log_y: spec.log_y,
+            };
+            let stem = dir.join(format!("p{pi}_{}_vs_{}", metric, spec.x.replace('.', "_")));
+            write_plot(&stem, &plot)?;
+            figures
+                .plots
+                .push((plot.title.clone(), stem.with_extension("png")));
+        }
+    }
+    Ok(())
+}
+
+/// One line per value of the series axis (in plan order): x → mean of the metric over the
+/// remaining axes.
+fn series(spec: &PlotSpec, column: &MetricColumn, cells: &[&Collected]) -> Vec<Series> {
+    let mut lines: BTreeMap<String, BTreeMap<i64, (f64, Vec<f64>)>> = BTreeMap::new();
+    let mut order: Vec<String> = Vec::new();
+    for c in cells {
+        let (Some(r), Some(x)) = (
+            &c.record,
+            axis_value(&c.planned, &spec.x).as_ref().and_then(numeric),
+        ) else {
+            continue;
+        };
+        let Some(y) = (column.value)(r, c.reference.as_ref()) else {
+            continue;
+        };
+        let name = spec
+            .series
+            .as_ref()
+            .and_then(|s| {
+                axis_value(&c.planned, s).map(|v| format!("{} = {}", short_key(s), value_label(&v)))
+            })
+            .unwrap_or_default();
+        let key = (x * 1e6).round() as i64;
+        if !order.contains(&name) {
+            order.push(name.clone());
+        }
+        lines
+            .entry(name)
+            .or_default()
+            .entry(key)
+            .or_insert((x, Vec::new()))
+            .1
+            .push(y);
+    }
+    order
+        .into_iter()
+        .filter_map(|name| lines.remove(&name).map(|pts| (name, pts)))
+        .map(|(name, pts)| Series {
+            name,
+            points: pts
+                .into_values()
+                .map(|(x, ys)| (x, ys.iter().sum::<f64>() / ys.len() as f64))
+                .collect(),
+        })
+        .collect()
+}
+
+/// `metric vs x (fixed axes), mean over other axes`.
+fn title(plan: &PlanRecord, spec: &PlotSpec, metric: &str) -> String {
+    let averaged = plan.axes.len() > 1 + usize::from(spec.series.is_some()) + spec.filter.len();
+    let fixed = spec
+        .filter
+        .iter()
+        .map(|(k, v)| format!("{} = {}", short_key(k), value_text(v)))
+        .collect::<Vec<_>>()
+        .join(", ");
+    format!(
+        "{metric} vs {}{}{}",
+        short_key(&spec.x),
+        if fixed.is_empty() {
+            String::new()
+        } else {
+            format!(" ({fixed})")
+        },
+        if averaged {
+            ", mean over other axes"
+        } else {
+            ""
+        }
+    )
+}

@@ -1,0 +1,84 @@
+//! Locks in an output folder: a full run holds the folder's `.lock` exclusively; runs of
+//! selected cells (`--cells`, `--shard`, cluster tasks) and `sweep report` hold it shared,
+//! plus an exclusive lock per cell (`cells/.<hash>.lock`) or reference
+//! (`references/<key>.lock`), so they can work side by side.
+
+use std::fs::File;
+use std::path::Path;
+
+use anyhow::{Context, Result};
+
+use super::OutputDir;
+
+/// Holds the output folder's lock for the duration of a run.
+pub(crate) struct FolderLock {
+    _file: File,
+}
+
+/// Locks the output folder: exclusively for a full run, shared for a run of selected cells.
+pub(crate) fn lock_folder(out: &OutputDir, exclusive: bool) -> Result<FolderLock> {
+    std::fs::create_dir_all(out.root())
+        .with_context(|| format!("creating {}", out.root().display()))?;
+    let path = out.root().join(".lock");
+    let file = lock_file(&path)?;
+    let result = if exclusive {
+        file.try_lock()
+    } else {
+        file.try_lock_shared()
+    };
+    match result {
+        Ok(()) => Ok(FolderLock { _file: file }),
+        Err(std::fs::TryLockError::WouldBlock) => anyhow::bail!(
+            "{} is being written by another sweep run (lock {}); wait for it or choose another --output",
+            out.root().display(),
+            path.display()
+        ),
+        Err(std::fs::TryLockError::Error(e)) => {
+            Err(e).with_context(|| format!("locking {}", path.display()))
+        }
+    }
+}
+
+/// An exclusive lock on one cell, held while it is rendered and written.
+pub(crate) struct CellLock {
+    _file: File,
+}
+
+fn lock_file(path: &Path) -> Result<File> {
+    File::options()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(path)
+        .with_context(|| format!("opening {}", path.display()))
+}
+
+/// Locks cell `hash` unless another process holds it (then `None`: it is being rendered).
+pub(crate) fn try_lock_cell(out: &OutputDir, hash: &str) -> Result<Option<CellLock>> {
+    let file = lock_file(&out.cell_lock(hash))?;
+    Ok(file.try_lock().is_ok().then_some(CellLock { _file: file }))
+}
+
+/// Whether another process holds cell `hash`'s lock right now.
+pub(crate) fn cell_is_locked(out: &OutputDir, hash: &str) -> bool {
+    File::options()
+        .write(true)
+        .open(out.cell_lock(hash))
+        .ok()
+        .is_some_and(|f| f.try_lock().is_err())
+}
+
+/// An exclusive lock on one reference.
+pub(crate) struct ReferenceLock {
+    _file: File,
+}
+
+/// Locks reference `key`, waiting while another process renders it.
+pub(crate) fn lock_reference(out: &OutputDir, key: &str) -> Result<ReferenceLock> {
+    std::fs::create_dir_all(out.root().join("references"))?;
+    let path = out.root().join("references").join(format!("{key}.lock"));
+    let file = lock_file(&path)?;
+    file.lock()
+        .with_context(|| format!("locking {}", path.display()))?;
+    Ok(ReferenceLock { _file: file })
+}
