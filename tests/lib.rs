@@ -52,25 +52,7 @@ pub fn run_ok(cmd: &mut Command) -> Output {
     out
 }
 
-/// The folder that holds the real datasets, if any (`$VOLPHOT_DATA`, `./data`,
-/// `../shared/data` relative to the workspace).
-pub fn data_dir() -> Option<PathBuf> {
-    let mut candidates: Vec<PathBuf> = std::env::var_os("VOLPHOT_DATA")
-        .map(|v| std::env::split_paths(&v).collect())
-        .unwrap_or_default();
-    candidates.push(workspace().join("data"));
-    candidates.push(workspace().join("../shared/data"));
-    candidates
-        .into_iter()
-        .find(|d| d.join("engine_256x256x128_uint8.raw").is_file())
-}
-
-/// Whether tests that need real data must run (CI may not skip them silently).
-pub fn real_data_required() -> bool {
-    std::env::var("CI")
-        .map(|v| v == "true" || v == "1")
-        .unwrap_or(false)
-}
+pub use volphot::test_util::{real_data_dir as data_dir, skip};
 
 /// Writes `dir/<name>.toml`: an experiment called `name` on the scene preset
 /// `experiments/scenes/<scene>`, followed by `tables` (its `[set]`, `[axes]`, … tables).

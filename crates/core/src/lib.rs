@@ -64,6 +64,9 @@ mod scene;
 mod util;
 mod volume;
 
+#[cfg(any(test, feature = "test-util"))]
+pub mod test_util;
+
 pub use error::{Error, Result, check_non_negative, check_positive, check_range};
 pub use film::{Film, Layer, mean_rgb, to_srgb8, write_pfm, write_png, write_png_rgb8};
 pub use integrator::{

@@ -42,8 +42,7 @@ fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
     p
 }
 
-const SCENE: &str =
-    "[volume]\nphantom = { name = \"sphere\", resolution = [8, 8, 8] }\n[three_point]\n";
+use volphot::test_util::SMALL_SCENE as SCENE;
 
 /// Parses, validates and builds a scene from text; returns the located error.
 fn scene(dir: &Path, text: &str) -> Result<(), String> {
@@ -435,7 +434,7 @@ fn every_bad_input_is_named_and_nothing_panics() {
 #[test]
 fn validate_params_and_locate_agree_on_keys() {
     // A parameter error's key path leads back to where it was written.
-    let src = "[volume]\nphantom = { name = \"sphere\", resolution = [8, 8, 8] }\n[three_point]\nkey_intensity = -1\n";
+    let src = &format!("{SCENE}key_intensity = -1\n");
     let params = SceneParams::from_toml(src, Path::new("s.toml")).unwrap();
     validate_params(&params).unwrap();
     let err = Scene::from_params(&params, Path::new("."), &SearchPath::new(vec![])).unwrap_err();

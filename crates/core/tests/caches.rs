@@ -1,7 +1,7 @@
 //! The optional caches trade accuracy for speed; their error against the uncached path is
 //! measured here and bounded.
 
-mod common;
+use volphot::test_util as common;
 
 use volphot::IntegratorParams;
 use volphot::Layer;

@@ -1,6 +1,6 @@
 //! Conventions pinned by images: an asymmetric phantom lands where expected.
 
-mod common;
+use volphot::test_util as common;
 
 use glam::Vec3;
 use volphot::Layer;

@@ -1,7 +1,7 @@
 //! Physics checked against closed forms and against the reference path tracer — never
 //! against the photon integrator itself.
 
-mod common;
+use volphot::test_util as common;
 
 use glam::Vec3;
 use volphot::FreePath;

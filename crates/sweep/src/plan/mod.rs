@@ -304,12 +304,17 @@ mod tests {
         p
     }
 
-    const SCENE: &str = "[volume]\nphantom = { name = \"sphere\", resolution = [8, 8, 8] }\n[three_point]\n[camera]\nresolution = [64, 64]\n";
+    fn scene() -> String {
+        format!(
+            "{}[camera]\nresolution = [64, 64]\n",
+            volphot::test_util::SMALL_SCENE
+        )
+    }
 
     #[test]
     fn product_zip_exclude_and_ranges() {
         let dir = tempfile::tempdir().unwrap();
-        write(dir.path(), "s.toml", SCENE);
+        write(dir.path(), "s.toml", &scene());
         let exp = write(
             dir.path(),
             "e.toml",
@@ -356,7 +361,7 @@ integrator.nused = [25, 150]
     #[test]
     fn errors_point_at_the_experiment_file() {
         let dir = tempfile::tempdir().unwrap();
-        write(dir.path(), "s.toml", SCENE);
+        write(dir.path(), "s.toml", &scene());
         let cases = [
             (
                 "scene = \"s.toml\"\n[axes]\n\"integrator.nused\" = [0, 5]\n",

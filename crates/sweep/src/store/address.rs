@@ -55,3 +55,44 @@ pub(crate) fn reference_hash(params: &SceneParams, volume_identity: &str) -> Res
     );
     Ok(volphot::sha256_bytes(text.as_bytes())[..16].to_string())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params(extra: &str) -> SceneParams {
+        let src = format!("{}{extra}", volphot::test_util::SMALL_SCENE);
+        SceneParams::from_toml(&src, Path::new("s.toml")).unwrap()
+    }
+
+    #[test]
+    fn a_cell_address_follows_its_parameters_and_its_volume_content() {
+        let base = Path::new(".");
+        let a = cell_hash(&params(""), base).unwrap();
+        assert_eq!(a, cell_hash(&params(""), base).unwrap(), "stable");
+        assert_eq!(a.len(), 16);
+        assert_ne!(
+            a,
+            cell_hash(&params("[integrator]\nnused = 50\n"), base).unwrap()
+        );
+        // A volume file: same name, different bytes, different address.
+        let tmp = tempfile::tempdir().unwrap();
+        let file = tmp.path().join("v.raw");
+        let raw = "[volume]\nfile = \"v.raw\"\ndims = [2, 2, 2]\nvoxel = \"u8\"\n[three_point]\n";
+        let p = SceneParams::from_toml(raw, Path::new("s.toml")).unwrap();
+        std::fs::write(&file, [1u8; 8]).unwrap();
+        let first = cell_hash(&p, tmp.path()).unwrap();
+        std::fs::write(&file, [2u8; 8]).unwrap();
+        let second = cell_hash(&p, tmp.path()).unwrap();
+        assert_ne!(first, second);
+    }
+
+    #[test]
+    fn a_reference_address_ignores_its_sample_count() {
+        let mut p = params("");
+        let a = reference_hash(&p, "vol").unwrap();
+        p.integrator.reference_spp = 4096;
+        assert_eq!(a, reference_hash(&p, "vol").unwrap());
+        assert_ne!(a, reference_hash(&p, "other volume").unwrap());
+    }
+}

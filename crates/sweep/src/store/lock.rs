@@ -82,3 +82,35 @@ pub(crate) fn lock_reference(out: &OutputDir, key: &str) -> Result<ReferenceLock
         .with_context(|| format!("locking {}", path.display()))?;
     Ok(ReferenceLock { _file: file })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn folder_locks_exclude_full_runs_and_share_partial_ones() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = OutputDir::new(tmp.path());
+        let full = lock_folder(&out, true).unwrap();
+        let err = lock_folder(&out, false).err().expect("locked").to_string();
+        assert!(err.contains("being written by another sweep run"), "{err}");
+        drop(full);
+        let a = lock_folder(&out, false).unwrap();
+        let _b = lock_folder(&out, false).expect("shared locks coexist");
+        assert!(lock_folder(&out, true).is_err());
+        drop(a);
+    }
+
+    #[test]
+    fn a_cell_lock_is_held_by_one_process_at_a_time() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = OutputDir::new(tmp.path());
+        std::fs::create_dir_all(tmp.path().join("cells")).unwrap();
+        assert!(!cell_is_locked(&out, "abc"));
+        let lock = try_lock_cell(&out, "abc").unwrap().expect("free");
+        assert!(try_lock_cell(&out, "abc").unwrap().is_none());
+        assert!(cell_is_locked(&out, "abc"));
+        drop(lock);
+        assert!(!cell_is_locked(&out, "abc"));
+    }
+}

@@ -76,3 +76,44 @@ pub(crate) fn clean_stale(dir: &Path) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_staged_folder_appears_whole_or_not_at_all() {
+        let tmp = tempfile::tempdir().unwrap();
+        let target = tmp.path().join("cell");
+        let staged = StagedDir::new(&target).unwrap();
+        std::fs::write(staged.path().join("film.exr"), b"x").unwrap();
+        assert!(!target.exists(), "nothing visible before commit");
+        staged.commit().unwrap();
+        assert!(target.join("film.exr").is_file());
+        // Dropped without commit (an error or a panic): the temporary folder is removed.
+        let other = tmp.path().join("other");
+        let staged = StagedDir::new(&other).unwrap();
+        let tmp_path = staged.path().to_path_buf();
+        drop(staged);
+        assert!(!tmp_path.exists() && !other.exists());
+    }
+
+    #[test]
+    fn stale_folders_of_dead_processes_on_this_host_are_removed() {
+        let tmp = tempfile::tempdir().unwrap();
+        let host = hostname();
+        // A pid that cannot exist (above pid_max) and this process's own pid.
+        let dead = tmp.path().join(format!(".a.tmp-{host}-4294967295"));
+        let alive = tmp
+            .path()
+            .join(format!(".b.tmp-{host}-{}", std::process::id()));
+        let foreign = tmp.path().join(".c.tmp-another-host-4294967295");
+        for d in [&dead, &alive, &foreign] {
+            std::fs::create_dir_all(d).unwrap();
+        }
+        clean_stale(tmp.path());
+        assert!(!dead.exists());
+        assert!(alive.exists(), "a running process's folder stays");
+        assert!(foreign.exists(), "other hosts' folders are left alone");
+    }
+}

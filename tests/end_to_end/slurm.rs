@@ -127,7 +127,10 @@ fn cell_dirs(out: &Path) -> Vec<PathBuf> {
 #[test]
 fn slurm_array_matches_local_run_and_resubmits_only_failures() {
     if !enabled() {
-        eprintln!("skipping: set CI=true or VOLPHOT_SLURM_TEST=1 to start a local Slurm cluster");
+        volphot_tests::skip(
+            "slurm_array_matches_local_run_and_resubmits_only_failures",
+            "set CI=true or VOLPHOT_SLURM_TEST=1 to start a local Slurm cluster (needs root and Debian's slurm packages)",
+        );
         return;
     }
     let start = Instant::now();

@@ -1,0 +1,14 @@
+//! End-to-end tests: one binary (ripgrep style) that drives the real `sweep` executable.
+//!
+//! * `runs` — experiments, reports, resuming, locking, errors, `sweep render`;
+//! * `claims` — the thesis's findings that the committed studies reproduce, on small grids;
+//! * `browser` — `report.html` in headless Chromium;
+//! * `slurm` — a real single-node Slurm cluster (CI or `VOLPHOT_SLURM_TEST=1`).
+//!
+//! Tests that cannot run here (no real data, no Chromium, no Slurm) print `SKIPPED …` to
+//! stderr; under `CI=true` they fail instead.
+
+mod browser;
+mod claims;
+mod runs;
+mod slurm;
