@@ -130,12 +130,15 @@ fn write_cell(
         let file = dir.join(format!("{}.png", layer.name()));
         write_png(&file, w, h, film.layer(layer), exposure)?;
     }
+    // The march's scene is any cell's of the group; each cell records its own parameters.
+    let mut provenance = Provenance::of(scene);
+    provenance.scene = p.clone();
     let record = CellRecord {
         index: job.spec.index,
         hash: job.hash.clone(),
         label: job.spec.label(),
         axes: job.axes_json(),
-        provenance: Provenance::of(scene),
+        provenance,
         photons,
         timings,
         peak_memory_bytes: volphot::peak_memory_bytes(),

@@ -377,3 +377,104 @@ pub(crate) fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     }
     Ok(builder.build()?)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::{read_record, write_plan};
+
+    #[test]
+    fn cell_filters_parse_and_resolve_against_the_plan() {
+        let f = CellFilter::parse_cells("3, 7-9,8").unwrap();
+        assert_eq!(f.resolve(10).unwrap(), Selection::Cells(vec![3, 7, 8, 9]));
+        let e = f.resolve(9).unwrap_err().to_string();
+        assert!(
+            e.contains("cell 9 does not exist (the plan has cells 0-8)"),
+            "{e}"
+        );
+        for (bad, says) in [
+            ("9-7", "reversed"),
+            ("x", "not a cell index"),
+            (",", "no cells"),
+        ] {
+            let e = CellFilter::parse_cells(bad).unwrap_err().to_string();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
+        let shard = CellFilter::parse_shard("1/3").unwrap();
+        assert_eq!(shard.resolve(7).unwrap(), Selection::Cells(vec![1, 4]));
+        assert!(CellFilter::parse_shard("3/3").is_err());
+        assert_eq!(CellFilter::All.resolve(2).unwrap().indices(2), vec![0, 1]);
+    }
+
+    /// An experiment of four 24² cells (two σt × two nused) on the sphere phantom.
+    fn experiment(dir: &std::path::Path) -> Experiment {
+        let scene = format!(
+            "{}[camera]\nresolution = [24, 24]\n[integrator]\nvolume_photons = 2000\nstepsize = 0.01\n",
+            volphot::test_util::SMALL_SCENE
+        );
+        std::fs::write(dir.join("s.toml"), scene).unwrap();
+        let exp =
+            "scene = \"s.toml\"\n[axes]\n\"sigma.t\" = [5, 20]\n\"integrator.nused\" = [10, 40]\n";
+        std::fs::write(dir.join("e.toml"), exp).unwrap();
+        Experiment::load(&dir.join("e.toml")).unwrap()
+    }
+
+    fn jobs(exp: &Experiment) -> Vec<Job> {
+        let (cells, hashes) = exp.plan_with_hashes(crate::plan::Quality::Default).unwrap();
+        cells
+            .into_iter()
+            .zip(hashes)
+            .map(|(spec, hash)| Job {
+                spec,
+                hash,
+                reference: None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn cells_that_differ_only_in_multiple_scattering_share_a_march() {
+        let tmp = tempfile::tempdir().unwrap();
+        let exp = experiment(tmp.path());
+        let groups = march_groups(jobs(&exp), true);
+        let sizes: Vec<usize> = groups.iter().map(Vec::len).collect();
+        assert_eq!(sizes, [2, 2], "one march per σt, serving both nused");
+        for g in &groups {
+            let t = g[0].spec.params.sigma.t;
+            assert!(g.iter().all(|j| j.spec.params.sigma.t == t));
+        }
+        assert_eq!(march_groups(jobs(&exp), false).len(), 4, "share = false");
+    }
+
+    #[test]
+    fn render_cells_writes_each_cell_once_and_skips_finished_ones() {
+        let tmp = tempfile::tempdir().unwrap();
+        let exp = experiment(tmp.path());
+        let (cells, hashes) = exp.plan_with_hashes(crate::plan::Quality::Default).unwrap();
+        let plan = exp
+            .plan_record(&cells, &hashes, crate::plan::Quality::Default)
+            .unwrap();
+        let out = OutputDir::new(tmp.path().join("out"));
+        std::fs::create_dir_all(out.root()).unwrap();
+        write_plan(&out, &plan, &exp.source.text).unwrap();
+        let options = RenderOptions {
+            output: out.clone(),
+            selection: Selection::All,
+            jobs: 1,
+            quiet: true,
+        };
+        let first = render_cells(&exp, &cells, &plan, &options).unwrap();
+        assert_eq!((first.rendered, first.marches, first.skipped), (4, 2, 0));
+        assert!(first.failed.is_empty(), "{:?}", first.failed);
+        for (cell, hash) in cells.iter().zip(&hashes) {
+            let record = read_record(&out.cell(hash)).unwrap();
+            assert_eq!(record.index, cell.index);
+            assert_eq!(record.timings.march_shared_by, 2);
+            // Each cell records its own parameters, not those of the march it shared.
+            assert_eq!(record.provenance.scene, cell.params);
+            assert!(record.mean_multiple > 0.0);
+        }
+        let again = render_cells(&exp, &cells, &plan, &options).unwrap();
+        assert_eq!((again.rendered, again.skipped), (0, 4));
+    }
+}
