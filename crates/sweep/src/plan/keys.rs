@@ -3,8 +3,14 @@
 
 use toml::{Table, Value};
 
-/// Flattens nested axis tables into dotted keys; leaves are arrays or range tables.
-pub(crate) fn flatten_axes(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
+/// Flattens nested tables into `(dotted key, value)`, recursing into a table value unless
+/// `is_leaf(key, table)` says it is a value itself.
+fn flatten(
+    table: &Table,
+    prefix: &str,
+    is_leaf: &dyn Fn(&str, &Table) -> bool,
+    out: &mut Vec<(String, Value)>,
+) {
     for (k, v) in table {
         let key = if prefix.is_empty() {
             k.clone()
@@ -12,29 +18,21 @@ pub(crate) fn flatten_axes(table: &Table, prefix: &str, out: &mut Vec<(String, V
             format!("{prefix}.{k}")
         };
         match v {
-            Value::Table(t) if !t.contains_key("from") => flatten_axes(t, &key, out),
+            Value::Table(t) if !is_leaf(k, t) => flatten(t, &key, is_leaf, out),
             other => out.push((key, other.clone())),
         }
     }
 }
 
-/// Flattens nested override tables into `(dotted key, value)`.
+/// Flattens nested axis tables into dotted keys; leaves are arrays or range tables.
+pub(crate) fn flatten_axes(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
+    flatten(table, prefix, &|_, t| t.contains_key("from"), out);
+}
+
+/// Flattens nested override tables into `(dotted key, value)`. Inline values of keys that
+/// take a table (`phantom`, `box`) are set whole.
 pub(crate) fn flatten_set(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
-    for (k, v) in table {
-        let key = if prefix.is_empty() {
-            k.clone()
-        } else {
-            format!("{prefix}.{k}")
-        };
-        match v {
-            // A table value is recursed into unless it is an inline value for a key that
-            // takes a table (phantom, box): those are set whole.
-            Value::Table(t) if !matches!(k.as_str(), "phantom" | "box") => {
-                flatten_set(t, &key, out)
-            }
-            other => out.push((key, other.clone())),
-        }
-    }
+    flatten(table, prefix, &|k, _| matches!(k, "phantom" | "box"), out);
 }
 
 /// Compares axis values, treating 80 and 80.0 as equal.
