@@ -13,6 +13,7 @@ use std::path::Path;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::Vec3;
+use volphot::Control;
 use volphot::Phase;
 use volphot::SearchPath;
 use volphot::build_photon_map;
@@ -67,11 +68,13 @@ fn phases(c: &mut Criterion) {
                         stepsize: 0.0005,
                         seed: 1,
                     },
+                    &Control::none(),
                 )
+                .expect("traces")
             })
         });
     }
-    let map = build_photon_map(&scene);
+    let map = build_photon_map(&scene, &Control::none()).unwrap();
     let photons = map.photons().to_vec();
     let stats = map.stats().clone();
     group.bench_function("kd_tree_build", |b| {
@@ -115,7 +118,7 @@ fn phases(c: &mut Criterion) {
             })
             .expect("valid settings");
         group.bench_function(format!("march_128px_{name}"), |b| {
-            b.iter(|| render_march(&s, &[&map], &[], &|_| {}).expect("renders"))
+            b.iter(|| render_march(&s, &[&map], &[], &Control::none()).expect("renders"))
         });
     }
     group.finish();
@@ -146,8 +149,8 @@ fn headline(c: &mut Criterion) {
     group.sample_size(10);
     group.bench_function("foot_512px_40k_nused150_cached", |b| {
         b.iter(|| {
-            let map = build_photon_map(&scene);
-            render_march(&scene, &[&map], &[], &|_| {}).expect("renders")
+            let map = build_photon_map(&scene, &Control::none()).unwrap();
+            render_march(&scene, &[&map], &[], &Control::none()).expect("renders")
         })
     });
     group.finish();

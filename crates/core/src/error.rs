@@ -122,6 +122,15 @@ pub enum Error {
         other_size: [usize; 2],
     },
 
+    /// A render ran past its time limit and was stopped.
+    #[error(
+        "stopped after the time limit of {seconds} s (raise it with --cell-timeout, or make the cell cheaper: fewer pixels, photons or samples, a larger stepsize)"
+    )]
+    TimeLimit {
+        /// The limit, in seconds.
+        seconds: f64,
+    },
+
     /// A progressive render cannot resume from a film that lacks its statistics.
     #[error(
         "{what}: the film has no variance layers to resume from (render it again from the start)"

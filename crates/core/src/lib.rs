@@ -28,7 +28,7 @@
 //!
 //! ```
 //! use std::path::Path;
-//! use volphot::{Layer, Scene, SceneParams, SearchPath, render};
+//! use volphot::{Control, Layer, Scene, SceneParams, SearchPath, render};
 //!
 //! let src = r#"
 //! [volume]
@@ -47,12 +47,13 @@
 //! assert_eq!(scene.lights().len(), 3);
 //! assert!((scene.medium().report().sigma_t_at_dmin - 10.0).abs() < 1e-4);
 //!
-//! let out = render(&scene, &|_rows| {}).unwrap();
+//! let out = render(&scene, &Control::none()).unwrap();
 //! assert!(out.film.mean(Layer::Single) > 0.0);
 //! assert!(out.film.mean(Layer::Multiple) > 0.0);
 //! ```
 #![deny(missing_docs)]
 
+mod control;
 mod error;
 mod film;
 mod integrator;
@@ -67,6 +68,7 @@ mod volume;
 #[cfg(any(test, feature = "test-util"))]
 pub mod test_util;
 
+pub use control::Control;
 pub use error::{Error, Result, check_non_negative, check_positive, check_range};
 pub use film::{Film, Layer, mean_rgb, to_srgb8, write_pfm, write_png, write_png_rgb8};
 pub use integrator::{
@@ -75,10 +77,10 @@ pub use integrator::{
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
 pub use medium::{
-    Coefficients, DEFAULT_BRICK_SIZE, FreePath, MajorantGrid, MajorantSegment, MajorantSegments,
-    MappingKind, Medium, MediumSettings, Pgm, Phase, SigmaMapping, SigmaParams, SigmaReport, Split,
-    THESIS_ALBEDO, THESIS_T, TransferFunction, TransferKind, TransferParams, parse_pgm,
-    sample_interaction_march, sample_interaction_thesis, write_pgm,
+    Coefficients, DEFAULT_BRICK_SIZE, FreePath, MIN_MEAN_FREE_PATH, MajorantGrid, MajorantSegment,
+    MajorantSegments, MappingKind, Medium, MediumSettings, Pgm, Phase, SigmaMapping, SigmaParams,
+    SigmaReport, Split, THESIS_ALBEDO, THESIS_T, TransferFunction, TransferKind, TransferParams,
+    parse_pgm, sample_interaction_march, sample_interaction_thesis, write_pgm,
 };
 pub use photon::{
     GatherScratch, GatherVariant, Gathered, MAX_INTERACTIONS, Photon, PhotonMap, PhotonStats,
@@ -90,9 +92,10 @@ pub use render::{
 };
 pub use scene::{
     BoxParams, Camera, CameraParams, Estimate, FilmParams, Incident, IntegratorParams, Intensity,
-    Light, LightKind, LightParams, Method, PhaseParams, PointLight, Quadrature, Scene, SceneParams,
-    ShadowEstimator, SpotLight, ThreePointParams, VolumeParams, build_medium, key_at, line_col,
-    load_params, load_volume, locate, locate_error, three_point, toml_error, validate_params,
+    Light, LightKind, LightParams, Method, NormalizeKind, PhaseParams, PointLight, Quadrature,
+    Scene, SceneParams, ShadowEstimator, SpotLight, ThreePointParams, VolumeParams, build_medium,
+    key_at, line_col, load_params, load_volume, locate, locate_error, three_point, toml_error,
+    validate_params,
 };
 pub use util::{
     cache_dir, memory_budget_bytes, peak_memory_bytes, sha256_bytes, sha256_cached, sha256_file,

@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
+use crate::control::Control;
 use crate::error::Result;
 use crate::film::{Film, Layer};
 use crate::integrator::{MarchStats, MsVariant, render_march, render_reference};
@@ -17,7 +18,7 @@ use crate::scene::{
     Estimate, IntegratorParams, Method, Quadrature, Scene, SceneParams, ShadowEstimator,
 };
 use crate::util::peak_memory_bytes;
-use crate::volume::VolumeSource;
+use crate::volume::{NormalizationRecord, VolumeSource};
 
 /// Seconds per phase.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -47,6 +48,10 @@ pub struct Provenance {
     pub sigma_mapping: String,
     /// What the σ mapping gives on this volume.
     pub sigma: SigmaReport,
+    /// How the volume's raw values were scaled to densities (absent in records written
+    /// before it was recorded).
+    #[serde(default)]
+    pub normalization: Option<NormalizationRecord>,
 }
 
 impl Provenance {
@@ -58,6 +63,7 @@ impl Provenance {
             transfer: scene.medium().transfer_description().to_string(),
             sigma_mapping: scene.medium().mapping().describe(),
             sigma: *scene.medium().report(),
+            normalization: Some(scene.medium().normalization().clone()),
         }
     }
 }
@@ -94,7 +100,7 @@ pub struct RenderOutput {
 }
 
 /// Traces the scene's photons and builds the photon map.
-pub fn build_photon_map(scene: &Scene) -> PhotonMap {
+pub fn build_photon_map(scene: &Scene, control: &Control<'_>) -> Result<PhotonMap> {
     let s = scene.integrator();
     let (photons, stats) = trace(
         scene.medium(),
@@ -105,19 +111,20 @@ pub fn build_photon_map(scene: &Scene) -> PhotonMap {
             stepsize: s.stepsize,
             seed: s.seed,
         },
-    );
-    PhotonMap::new(photons, stats)
+        control,
+    )?;
+    Ok(PhotonMap::new(photons, stats))
 }
 
 /// Renders a scene with the method it asks for.
-pub fn render(scene: &Scene, progress: &(dyn Fn(u64) + Sync)) -> Result<RenderOutput> {
+pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
     let start = Instant::now();
     let s = scene.integrator();
     let mut timings = Timings::default();
     let (film, photons, march, reference_spp) = match s.method {
         Method::Photon => {
             let map = if s.multiple {
-                let map = build_photon_map(scene);
+                let map = build_photon_map(scene, control)?;
                 timings.photon_tracing = map.stats().seconds;
                 timings.tree_build = map.build_seconds();
                 Some(map)
@@ -125,13 +132,13 @@ pub fn render(scene: &Scene, progress: &(dyn Fn(u64) + Sync)) -> Result<RenderOu
                 None
             };
             let maps: Vec<&PhotonMap> = map.iter().collect();
-            let out = render_march(scene, &maps, &[], progress)?;
+            let out = render_march(scene, &maps, &[], control)?;
             timings.render = out.stats.seconds;
             let film = out.films.into_iter().next().expect("one variant, one film");
             (film, map.map(|m| m.stats().clone()), Some(out.stats), None)
         }
         Method::Reference => {
-            let (film, seconds) = render_reference(scene, s.reference_spp, progress)?;
+            let (film, seconds) = render_reference(scene, s.reference_spp, control)?;
             timings.render = seconds;
             (film, None, None, Some(s.reference_spp))
         }
@@ -235,10 +242,10 @@ pub struct SharedRender {
 pub fn render_shared(
     scene: &Scene,
     variants: &[IntegratorParams],
-    progress: &(dyn Fn(u64) + Sync),
+    control: &Control<'_>,
 ) -> Result<SharedRender> {
     if scene.integrator().method == Method::Reference {
-        let out = render(scene, progress)?;
+        let out = render(scene, control)?;
         let film = SharedFilm {
             film: out.film,
             photons: None,
@@ -268,7 +275,7 @@ pub fn render_shared(
             Some(i) => i,
             None => {
                 let s = scene.with_integrator(integrator.clone())?;
-                maps.push((key, build_photon_map(&s)));
+                maps.push((key, build_photon_map(&s, control)?));
                 maps.len() - 1
             }
         };
@@ -281,7 +288,7 @@ pub fn render_shared(
         });
     }
     let map_refs: Vec<&PhotonMap> = maps.iter().map(|(_, m)| m).collect();
-    let out = render_march(scene, &map_refs, &ms_variants, progress)?;
+    let out = render_march(scene, &map_refs, &ms_variants, control)?;
     let films = film_of
         .iter()
         .map(|slot| match slot {

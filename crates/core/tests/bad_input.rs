@@ -30,7 +30,7 @@ fn raw_request(path: PathBuf, dims: [usize; 3], voxel: VoxelType) -> FileRequest
             header_bytes: 0,
         }),
         placement: None,
-        normalization: Normalization::TypeRange,
+        normalization: Some(Normalization::TypeRange),
         dataset: None,
         expected_sha256: None,
     }
@@ -346,7 +346,68 @@ fn cases() -> Vec<Case> {
             }),
             &["scene.toml:7:13", "`transfer.threshold` = 40000", "2048"],
         ),
+        s(
+            "raw: a directory given as the file",
+            Box::new(|d| {
+                std::fs::create_dir_all(d.join("dir.raw")).unwrap();
+                read_volume(&raw_request(d.join("dir.raw"), [2, 2, 2], VoxelType::U8))
+                    .map(|_| ())
+                    .map_err(|e| e.to_string())
+            }),
+            &["dir.raw", "is a directory"],
+        ),
+        s(
+            "raw: a NaN voxel in float data",
+            Box::new(|d| {
+                let mut bytes = Vec::new();
+                for i in 0..8 {
+                    let v = if i == 5 { f32::NAN } else { i as f32 };
+                    bytes.extend_from_slice(&v.to_le_bytes());
+                }
+                let p = write(d, "nan.raw", &bytes);
+                read_volume(&raw_request(p, [2, 2, 2], VoxelType::F32))
+                    .map(|_| ())
+                    .map_err(|e| e.to_string())
+            }),
+            &["nan.raw", "voxel 5", "x = 1, y = 0, z = 1", "NaN"],
+        ),
         // --- σ mappings ---
+        s(
+            "sigma: t so large that free paths vanish (hung before)",
+            Box::new(|d| scene(d, &format!("{SCENE}[sigma]\nt = 1e30\n"))),
+            &[
+                "scene.toml:5:5",
+                "`sigma.t` = 1000000000000000000000000000000",
+                "mean free path",
+            ],
+        ),
+        s(
+            "sigma: t = 1e7 on a unit volume",
+            Box::new(|d| scene(d, &format!("{SCENE}[sigma]\nt = 1e7\n"))),
+            &["`sigma.t` = 10000000", "σt_max <= 1.000e6"],
+        ),
+        s(
+            "sigma: mean free path of 1e-12 %",
+            Box::new(|d| {
+                scene(
+                    d,
+                    &format!("{SCENE}[sigma]\nmapping = \"mean-free-path\"\npercent = 1e-12\n"),
+                )
+            }),
+            &["scene.toml:6:11", "`sigma.percent`", "mean free path"],
+        ),
+        s(
+            "sigma: explicit σ = 1e9",
+            Box::new(|d| {
+                scene(
+                    d,
+                    &format!(
+                        "{SCENE}[sigma]\nmapping = \"explicit\"\nsigma_a = [1e9, 1e9, 1e9]\nsigma_s = [1e9, 1e9, 1e9]\n"
+                    ),
+                )
+            }),
+            &["`sigma.sigma_s`", "mean free path"],
+        ),
         s(
             "sigma: negative t",
             Box::new(|d| scene(d, &format!("{SCENE}[sigma]\nt = -80\n"))),

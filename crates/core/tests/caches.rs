@@ -3,6 +3,7 @@
 
 use volphot::test_util as common;
 
+use volphot::Control;
 use volphot::IntegratorParams;
 use volphot::Layer;
 use volphot::build_photon_map;
@@ -32,7 +33,7 @@ stepsize = 0.002
 #[test]
 fn cache_errors_are_measured_and_small() {
     let base = common::scene(SCENE);
-    let map = build_photon_map(&base);
+    let map = build_photon_map(&base, &Control::none()).unwrap();
     let render = |shadow_cache: u32, ms_cache: u32| {
         let scene = base
             .with_integrator(IntegratorParams {
@@ -41,7 +42,7 @@ fn cache_errors_are_measured_and_small() {
                 ..base.integrator().clone()
             })
             .unwrap();
-        render_march(&scene, &[&map], &[], &|_| {}).unwrap()
+        render_march(&scene, &[&map], &[], &Control::none()).unwrap()
     };
     let exact = render(0, 0);
     let shadow = render(96, 0);

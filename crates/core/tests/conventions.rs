@@ -3,6 +3,7 @@
 use volphot::test_util as common;
 
 use glam::Vec3;
+use volphot::Control;
 use volphot::Layer;
 use volphot::render_march;
 
@@ -30,7 +31,9 @@ multiple = false
 stepsize = 0.002
 "#,
     );
-    let film = &render_march(&scene, &[], &[], &|_| {}).unwrap().films[0];
+    let film = &render_march(&scene, &[], &[], &Control::none())
+        .unwrap()
+        .films[0];
     let camera = scene.camera();
     let brightness = |p: Vec3| {
         let (x, y) = camera.project(p).unwrap();

@@ -4,6 +4,7 @@
 use volphot::test_util as common;
 
 use glam::Vec3;
+use volphot::Control;
 use volphot::FreePath;
 use volphot::build_photon_map;
 use volphot::render_march;
@@ -63,7 +64,7 @@ fn single_scattering_in_homogeneous_medium_matches_closed_form() {
         let scene = common::scene(
             &HOMOGENEOUS.replace("spp = 8", &format!("spp = 512\nshadow = \"{shadow}\"")),
         );
-        let out = render_march(&scene, &[], &[], &|_| {}).unwrap();
+        let out = render_march(&scene, &[], &[], &Control::none()).unwrap();
         let got = out.films[0].layer(Layer::Single)[0].x as f64;
         let rel = (got - expected).abs() / expected;
         assert!(
@@ -73,7 +74,7 @@ fn single_scattering_in_homogeneous_medium_matches_closed_form() {
     }
     // The reference path tracer estimates the same integral.
     let scene = common::scene(&HOMOGENEOUS.replace("spp = 8", "spp = 8\nreference_spp = 200000"));
-    let (film, _) = render_reference(&scene, 200_000, &|_| {}).unwrap();
+    let (film, _) = render_reference(&scene, 200_000, &Control::none()).unwrap();
     let got = film.layer(Layer::Single)[0].x as f64;
     let sigma = (film.variance(Layer::Single).unwrap()[0].x as f64).sqrt();
     assert!(
@@ -132,7 +133,7 @@ volume_photons = 200000
 fn photon_energy_bookkeeping_matches_closed_forms() {
     // Thin cube: the uncollided fraction follows Beer–Lambert from the centre.
     let scene = cube_with_central_light(2.0, 0.5);
-    let map = build_photon_map(&scene);
+    let map = build_photon_map(&scene, &Control::none()).unwrap();
     let stats = map.stats();
     let escaped = stats.escaped_without_interaction as f64 / stats.emitted as f64;
     let expected = escape_fraction(2.0);
@@ -147,7 +148,7 @@ fn photon_energy_bookkeeping_matches_closed_forms() {
     // Φ·Λ/(1−Λ); the power is divided by the photons emitted by the light.
     for albedo in [0.5f32, 0.8] {
         let scene = cube_with_central_light(200.0, albedo);
-        let map = build_photon_map(&scene);
+        let map = build_photon_map(&scene, &Control::none()).unwrap();
         let phi = 4.0 * std::f64::consts::PI * 2.0;
         let expected = phi * albedo as f64 / (1.0 - albedo as f64);
         let got = map.stats().stored_power;
@@ -260,7 +261,9 @@ fn photon_free_path_rules_differ_only_for_thesis_rule() {
                 stepsize: 0.0005,
                 seed: 3,
             },
-        );
+            &Control::none(),
+        )
+        .unwrap();
         let dense =
             photons.iter().filter(|p| p.position.x > 0.5).count() as f64 / photons.len() as f64;
         let depth = photons.iter().map(|p| p.position.x as f64).sum::<f64>() / photons.len() as f64;
@@ -319,7 +322,7 @@ reference_spp = 1024
 #[test]
 fn photon_integrator_agrees_with_reference_and_converges() {
     let base = common::scene(SPHERE);
-    let (reference, _) = render_reference(&base, 4096, &|_| {}).unwrap();
+    let (reference, _) = render_reference(&base, 4096, &Control::none()).unwrap();
     let ref_single = reference.layer(Layer::Single);
     let ref_multiple = reference.layer(Layer::Multiple);
     let ref_noise_single = mean_rgb(reference.variance(Layer::Single).unwrap()).sqrt();
@@ -338,7 +341,7 @@ fn photon_integrator_agrees_with_reference_and_converges() {
             ..base.integrator().clone()
         })
         .unwrap();
-    let out = render_march(&scene, &[], &[], &|_| {}).unwrap();
+    let out = render_march(&scene, &[], &[], &Control::none()).unwrap();
     let single = out.films[0].layer(Layer::Single);
     let mean_err = (mean_rgb(single) / mean_rgb(ref_single) - 1.0).abs();
     assert!(
@@ -363,8 +366,8 @@ fn photon_integrator_agrees_with_reference_and_converges() {
                 ..base.integrator().clone()
             })
             .unwrap();
-        let map = build_photon_map(&scene);
-        let out = render_march(&scene, &[&map], &[], &|_| {}).unwrap();
+        let map = build_photon_map(&scene, &Control::none()).unwrap();
+        let out = render_march(&scene, &[&map], &[], &Control::none()).unwrap();
         let multiple = out.films[0].layer(Layer::Multiple);
         let rel = common::relative_rmse(multiple, ref_multiple);
         // The reference's own noise is part of the difference; remove it.
@@ -404,9 +407,9 @@ fn same_seed_gives_bit_identical_images_with_one_and_two_threads() {
             .build()
             .unwrap()
             .install(|| {
-                let map = build_photon_map(&scene);
-                let march = render_march(&scene, &[&map], &[], &|_| {}).unwrap();
-                let (reference, _) = render_reference(&scene, 4, &|_| {}).unwrap();
+                let map = build_photon_map(&scene, &Control::none()).unwrap();
+                let march = render_march(&scene, &[&map], &[], &Control::none()).unwrap();
+                let (reference, _) = render_reference(&scene, 4, &Control::none()).unwrap();
                 (map.photons().to_vec(), march.films[0].clone(), reference)
             })
     };
@@ -451,9 +454,9 @@ stepsize = 0.002
 spp = 4
 "#;
     let base = common::scene(src);
-    let (reference, _) = render_reference(&base, 4096, &|_| {}).unwrap();
+    let (reference, _) = render_reference(&base, 4096, &Control::none()).unwrap();
     let reference_mean = mean_rgb(reference.layer(Layer::Multiple));
-    let map = build_photon_map(&base);
+    let map = build_photon_map(&base, &Control::none()).unwrap();
     let mut ratios = Vec::new();
     for estimate in [
         volphot::Estimate::Masked,
@@ -467,7 +470,7 @@ spp = 4
                 ..base.integrator().clone()
             })
             .unwrap();
-        let out = render_march(&scene, &[&map], &[], &|_| {}).unwrap();
+        let out = render_march(&scene, &[&map], &[], &Control::none()).unwrap();
         ratios.push((
             estimate,
             mean_rgb(out.films[0].layer(Layer::Multiple)) / reference_mean,

@@ -185,6 +185,9 @@ pub(crate) struct PlanArgs {
     /// Also print the sbatch lines a Slurm run would submit.
     #[arg(long)]
     pub(crate) slurm: bool,
+    /// List the cells of a grid larger than the experiment's `max_cells`.
+    #[arg(long, short)]
+    pub(crate) yes: bool,
 }
 
 /// Where cells are rendered.
@@ -261,6 +264,11 @@ pub(crate) struct RunArgs {
     /// Skip building the report after rendering (outside schedulers collect later).
     #[arg(long)]
     pub(crate) no_report: bool,
+    /// Time limit per render, in seconds: a cell (or a march of cells that share one pass,
+    /// or a reference) still running after it is stopped and recorded as failed, and the
+    /// rest of the grid goes on.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_timeout)]
+    pub(crate) cell_timeout: Option<std::time::Duration>,
     /// Where cells are rendered.
     #[arg(long, value_enum, default_value_t = BackendChoice::Local)]
     pub(crate) backend: BackendChoice,
@@ -302,6 +310,16 @@ pub(crate) struct BenchArgs {
     pub(crate) json: Option<PathBuf>,
 }
 
+/// Parses `--cell-timeout` (seconds, > 0).
+fn parse_timeout(s: &str) -> Result<std::time::Duration, String> {
+    s.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite() && *v > 0.0 && *v <= 1e7)
+        .map(std::time::Duration::from_secs_f64)
+        .ok_or_else(|| format!("`{s}`: expected a time limit in seconds, > 0 (e.g. 600)"))
+}
+
 /// Largest `--threads` accepted: more workers than this only add scheduling overhead.
 const MAX_THREADS: usize = 1024;
 
@@ -317,7 +335,7 @@ pub(crate) fn threads(value: Option<usize>) -> Result<Option<usize>> {
 
 impl SlurmArgs {
     /// The validated Slurm options.
-    pub(crate) fn options(&self) -> SlurmOptions {
+    pub(crate) fn options(&self, cell_timeout: Option<std::time::Duration>) -> SlurmOptions {
         SlurmOptions {
             partition: self.partition.clone(),
             time: self.time.clone(),
@@ -328,6 +346,7 @@ impl SlurmArgs {
             cells_per_task: self.cells_per_task,
             dry_run: self.dry_run,
             wait: self.wait,
+            cell_timeout,
         }
     }
 }
@@ -355,7 +374,7 @@ impl RunArgs {
                 threads: threads(self.threads)?,
             }),
             BackendChoice::Slurm => Box::new(Slurm {
-                options: self.slurm.options(),
+                options: self.slurm.options(self.cell_timeout),
             }),
         })
     }

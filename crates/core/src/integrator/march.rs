@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use super::cache::TransmittanceCache;
 use super::gather::{MapGroup, MsVariant, group_by_map, source_factor};
+use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
 use crate::math::{Domain, Ray, Rng};
@@ -289,13 +290,13 @@ impl Marcher<'_> {
 /// rules); `variants` lists the multiple-scattering images to produce from one march, each
 /// naming its map and estimate parameters (empty means the scene's own settings on
 /// `maps[0]`). Variants on the same map share one k-NN query per sample; all share the
-/// eye rays, the single-scattering and the emission layers. `progress` is called with the
-/// number of rows finished.
+/// eye rays, the single-scattering and the emission layers. `control` receives the number
+/// of rows finished and may stop the pass (a time limit).
 pub fn render_march(
     scene: &Scene,
     maps: &[&PhotonMap],
     variants: &[MsVariant],
-    progress: &(dyn Fn(u64) + Sync),
+    control: &Control<'_>,
 ) -> Result<MarchOutput> {
     let start = Instant::now();
     let settings = scene.integrator();
@@ -347,11 +348,16 @@ pub fn render_march(
     let rows: Vec<Row> = (0..camera.height() as usize)
         .into_par_iter()
         .map(|y| {
+            if control.expired() {
+                // Past the time limit: the remaining rows are skipped and the pass fails.
+                return Row::new(0, 0);
+            }
             let row = marcher.render_row(camera, y, max_group);
-            progress(rows_done.fetch_add(1, Ordering::Relaxed) + 1);
+            control.report(rows_done.fetch_add(1, Ordering::Relaxed) + 1);
             row
         })
         .collect();
+    control.check()?;
     let (films, mut stats) = assemble(rows, camera, variants.len(), settings.spp);
     stats.shadow_cache_nodes = marcher
         .shadow_caches

@@ -18,6 +18,7 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
 use crate::math::{Domain, Ray, Rng};
@@ -88,14 +89,10 @@ impl ReferenceAccumulator {
         self.passes
     }
 
-    /// Adds `passes` samples per pixel. `progress` receives the number of rows finished
-    /// within the current call.
-    pub fn add_passes(
-        &mut self,
-        scene: &Scene,
-        passes: u32,
-        progress: &(dyn Fn(u64) + Sync),
-    ) -> Result<f64> {
+    /// Adds `passes` samples per pixel. `control` receives the number of rows finished
+    /// within the current call and may stop it; a stopped call leaves the accumulator
+    /// partly updated, so it must be discarded.
+    pub fn add_passes(&mut self, scene: &Scene, passes: u32, control: &Control<'_>) -> Result<f64> {
         let camera = scene.camera();
         if camera.width() as usize != self.width || camera.height() as usize != self.height {
             return Err(Error::SizeMismatch {
@@ -120,6 +117,9 @@ impl ReferenceAccumulator {
             .zip(ve.par_chunks_mut(width))
             .enumerate()
             .for_each(|(y, (((((ms, mm), me), vs), vm), ve))| {
+                if control.expired() {
+                    return;
+                }
                 for x in 0..width {
                     let pixel = (y * width + x) as u64;
                     for pass in first..first + passes {
@@ -139,8 +139,9 @@ impl ReferenceAccumulator {
                         }
                     }
                 }
-                progress(rows_done.fetch_add(1, Ordering::Relaxed) + 1);
+                control.report(rows_done.fetch_add(1, Ordering::Relaxed) + 1);
             });
+        control.check()?;
         self.passes += passes;
         Ok(start.elapsed().as_secs_f64())
     }
@@ -229,13 +230,9 @@ fn trace_path(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> PathSample {
 }
 
 /// Renders a reference image with `passes` samples per pixel.
-pub fn render_reference(
-    scene: &Scene,
-    passes: u32,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<(Film, f64)> {
+pub fn render_reference(scene: &Scene, passes: u32, control: &Control<'_>) -> Result<(Film, f64)> {
     let camera = scene.camera();
     let mut acc = ReferenceAccumulator::new(camera.width() as usize, camera.height() as usize);
-    let seconds = acc.add_passes(scene, passes, progress)?;
+    let seconds = acc.add_passes(scene, passes, control)?;
     Ok((acc.film(), seconds))
 }

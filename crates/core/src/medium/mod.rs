@@ -21,14 +21,14 @@ pub use free_path::{FreePath, sample_interaction_march, sample_interaction_thesi
 pub use majorant::{MajorantGrid, MajorantSegment, MajorantSegments};
 pub use phase::Phase;
 pub use sigma::{
-    Coefficients, MappingKind, SigmaMapping, SigmaParams, SigmaReport, Split, THESIS_ALBEDO,
-    THESIS_T,
+    Coefficients, MIN_MEAN_FREE_PATH, MappingKind, SigmaMapping, SigmaParams, SigmaReport, Split,
+    THESIS_ALBEDO, THESIS_T,
 };
 pub use transfer::{Pgm, TransferFunction, TransferKind, TransferParams, parse_pgm, write_pgm};
 
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Ray};
-use crate::volume::{Grid, Reconstruction, Volume};
+use crate::volume::{Grid, NormalizationRecord, Reconstruction, Volume};
 
 /// Default majorant brick edge in voxels (a 256³ volume gets 64³ bricks). Small bricks skip
 /// more empty space inside bone-only transfer functions; measured on the foot preset, 4
@@ -102,6 +102,7 @@ pub struct Medium {
     report: SigmaReport,
     mapping: SigmaMapping,
     transfer: String,
+    normalization: NormalizationRecord,
 }
 
 impl Medium {
@@ -146,6 +147,7 @@ impl Medium {
             report,
             mapping: settings.mapping.clone(),
             transfer: settings.transfer.describe(),
+            normalization: volume.normalization().clone(),
         })
     }
 
@@ -246,6 +248,11 @@ impl Medium {
     /// The σ mapping.
     pub fn mapping(&self) -> &SigmaMapping {
         &self.mapping
+    }
+
+    /// How the volume's raw values were scaled to densities.
+    pub fn normalization(&self) -> &NormalizationRecord {
+        &self.normalization
     }
 
     /// The transfer function, described.

@@ -84,6 +84,11 @@ impl MappingKind {
     }
 }
 
+/// The shortest mean free path a medium may have, as a fraction of the volume's largest
+/// extent (in its densest voxel). Denser media cannot be tracked: a free-path step would
+/// fall below the `f32` precision of the ray parameter.
+pub const MIN_MEAN_FREE_PATH: f64 = 1e-6;
+
 /// The thesis's worked example (§8.1.2): σt(d_min) = 80, σs = 9/11·σt.
 pub const THESIS_T: f32 = 80.0;
 /// The thesis's worked-example albedo, 9/11 (≈ 0.818; note §8.1.2 recommends 1:4 = 0.8).
@@ -289,7 +294,38 @@ impl SigmaMapping {
 
     /// Base coefficients for a volume whose smallest non-zero transferred density is `d_min`
     /// and whose largest extent is `largest_extent` (world units).
-    pub fn resolve(&self, d_min: f32, _d_max: f32, largest_extent: f32) -> Result<Coefficients> {
+    ///
+    /// The densest voxel's mean free path `1/σt_max` must be at least
+    /// [`MIN_MEAN_FREE_PATH`] of the largest extent: beyond that no tracker can resolve the
+    /// medium (free-path steps fall below the precision of a ray's parameter), and the
+    /// error names the key that set σt.
+    pub fn resolve(&self, d_min: f32, d_max: f32, largest_extent: f32) -> Result<Coefficients> {
+        let coefficients = self.coefficients(d_min, largest_extent)?;
+        let sigma_t_max = coefficients.sigma_t_base as f64 * d_max as f64;
+        let bound = 1.0 / (MIN_MEAN_FREE_PATH * largest_extent as f64);
+        if !(sigma_t_max.is_finite() && sigma_t_max <= bound) {
+            let (key, value) = self.sigma_t_key();
+            return Err(Error::parameter(
+                key,
+                value,
+                format!(
+                    "a σ mapping whose densest voxel keeps a mean free path of at least {MIN_MEAN_FREE_PATH:e} of the volume's largest extent ({largest_extent}), i.e. σt_max <= {bound:.3e}; this one gives σt_max = {sigma_t_max:.3e}"
+                ),
+            ));
+        }
+        Ok(coefficients)
+    }
+
+    /// The key (and its value) that sets the scale of σt in this mapping.
+    fn sigma_t_key(&self) -> (&'static str, String) {
+        match self {
+            SigmaMapping::Explicit { sigma_s, .. } => ("sigma_s", format!("{sigma_s:?}")),
+            SigmaMapping::Thesis { t, .. } => ("t", t.to_string()),
+            SigmaMapping::MeanFreePath { percent, .. } => ("percent", percent.to_string()),
+        }
+    }
+
+    fn coefficients(&self, d_min: f32, largest_extent: f32) -> Result<Coefficients> {
         let need_dmin = || -> Result<f32> {
             if d_min > 0.0 && d_min.is_finite() {
                 Ok(d_min)

@@ -19,6 +19,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::control::Control;
+use crate::error::Result;
 use crate::math::{Domain, Ray, Rng};
 use crate::medium::{FreePath, Medium};
 use crate::scene::Light;
@@ -126,12 +128,14 @@ struct Chunk {
 }
 
 /// Traces photons from every light through the medium and returns the stored photons in
-/// photon-index order with statistics.
+/// photon-index order with statistics. `control`'s time limit is checked between chunks
+/// of 1024 photons.
 pub fn trace(
     medium: &Medium,
     lights: &[Light],
     settings: &TraceSettings,
-) -> (Vec<Photon>, PhotonStats) {
+    control: &Control<'_>,
+) -> Result<(Vec<Photon>, PhotonStats)> {
     let start = Instant::now();
     let per_light = photons_per_light(lights, settings.photons);
     // Photon i belongs to the first light whose cumulative count exceeds i.
@@ -148,6 +152,9 @@ pub fn trace(
         .into_par_iter()
         .map(|c| {
             let mut chunk = Chunk::default();
+            if control.expired() {
+                return chunk;
+            }
             for i in c * CHUNK..((c + 1) * CHUNK).min(total) {
                 let light_index = ends.partition_point(|&e| e <= i);
                 let light = &lights[light_index];
@@ -157,6 +164,7 @@ pub fn trace(
             chunk
         })
         .collect();
+    control.check()?;
     let mut photons = Vec::new();
     let mut flights = Vec::new();
     let mut stats = PhotonStats {
@@ -191,7 +199,7 @@ pub fn trace(
         .map(|p| (p.power.x as f64 + p.power.y as f64 + p.power.z as f64) / 3.0)
         .sum();
     stats.seconds = start.elapsed().as_secs_f64();
-    (photons, stats)
+    Ok((photons, stats))
 }
 
 fn trace_one(

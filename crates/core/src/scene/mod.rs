@@ -50,8 +50,8 @@ pub use light::{
     three_point,
 };
 pub use params::{
-    BoxParams, PhaseParams, SceneParams, VolumeParams, build_medium, load_params, load_volume,
-    validate_params,
+    BoxParams, NormalizeKind, PhaseParams, SceneParams, VolumeParams, build_medium, load_params,
+    load_volume, validate_params,
 };
 pub use settings::{Estimate, FilmParams, IntegratorParams, Method, Quadrature, ShadowEstimator};
 

@@ -55,9 +55,10 @@ pub struct VolumeParams {
     /// Physical voxel spacing (the volume is centred in the unit box, longest axis 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spacing: Option<[f32; 3]>,
-    /// `type-range`, `min-max` or `window`.
+    /// `type-range`, `min-max` or `window`; by default type-range for unsigned data and
+    /// min-max for signed and float data.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub normalize: Option<String>,
+    pub normalize: Option<NormalizeKind>,
     /// With `normalize = "window"`: raw `[lo, hi]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub window: Option<[f64; 2]>,
@@ -71,6 +72,18 @@ pub struct VolumeParams {
 
 fn default_brick_size() -> usize {
     DEFAULT_BRICK_SIZE
+}
+
+/// How raw voxel values are scaled to densities (`[volume] normalize`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum NormalizeKind {
+    /// Divide by the stored type's range (thesis §7.2.2).
+    TypeRange,
+    /// Map the data's own minimum and maximum onto `[0, 1]`.
+    MinMax,
+    /// Map the raw `window = [lo, hi]` onto `[0, 1]`, clamping outside.
+    Window,
 }
 
 /// A world box.
@@ -249,7 +262,7 @@ fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
             "either `box` or `spacing`",
         ));
     }
-    if v.window.is_some() && v.normalize.as_deref() != Some("window") {
+    if v.window.is_some() && v.normalize != Some(NormalizeKind::Window) {
         return Err(Error::parameter(
             "volume.window",
             "(given)",
@@ -279,11 +292,11 @@ fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
 }
 
 fn normalization(v: &VolumeParams) -> Result<Option<Normalization>> {
-    match v.normalize.as_deref() {
+    match v.normalize {
         None => Ok(None),
-        Some("type-range") => Ok(Some(Normalization::TypeRange)),
-        Some("min-max") => Ok(Some(Normalization::MinMax)),
-        Some("window") => {
+        Some(NormalizeKind::TypeRange) => Ok(Some(Normalization::TypeRange)),
+        Some(NormalizeKind::MinMax) => Ok(Some(Normalization::MinMax)),
+        Some(NormalizeKind::Window) => {
             let [lo, hi] = v.window.ok_or_else(|| {
                 Error::parameter(
                     "volume.window",
@@ -301,11 +314,6 @@ fn normalization(v: &VolumeParams) -> Result<Option<Normalization>> {
             })?;
             Ok(Some(n))
         }
-        Some(other) => Err(Error::parameter(
-            "volume.normalize",
-            format!("\"{other}\""),
-            "one of type-range, min-max, window",
-        )),
     }
 }
 
@@ -350,7 +358,7 @@ pub fn load_volume(v: &VolumeParams, base: &Path, search: &SearchPath) -> Result
                 path,
                 raw_layout,
                 placement: place,
-                normalization: norm.unwrap_or_default(),
+                normalization: norm,
                 dataset: None,
                 expected_sha256: v.sha256.clone(),
             })

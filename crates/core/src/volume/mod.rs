@@ -56,6 +56,17 @@ pub enum Normalization {
 }
 
 impl Normalization {
+    /// The default for data stored as `voxel`: the thesis's type range for unsigned integers
+    /// (§7.2.2); the data's own range for signed and float data, whose type range would put
+    /// air (−1024 HU in a CT) at half density and render a solid block.
+    pub fn default_for(voxel: VoxelType) -> Self {
+        if voxel.is_signed() {
+            Normalization::MinMax
+        } else {
+            Normalization::TypeRange
+        }
+    }
+
     /// Validates a window (finite, `lo < hi`).
     pub fn validate(&self) -> Result<()> {
         if let Normalization::Window { lo, hi } = *self
@@ -314,8 +325,8 @@ pub struct FileRequest {
     pub raw_layout: Option<RawLayout>,
     /// Placement; `None` uses the header's spacing (or 1,1,1 for RAW).
     pub placement: Option<Placement>,
-    /// Normalisation rule.
-    pub normalization: Normalization,
+    /// Normalisation rule; `None` chooses by voxel type ([`Normalization::default_for`]).
+    pub normalization: Option<Normalization>,
     /// Registry name, for provenance.
     pub dataset: Option<String>,
     /// Expected sha256 of the voxel data file, verified when given.
@@ -343,7 +354,9 @@ pub fn read_volume(request: &FileRequest) -> Result<Volume> {
         loaded.dims,
         loaded.values,
         Some(loaded.voxel_type),
-        request.normalization,
+        request
+            .normalization
+            .unwrap_or(Normalization::default_for(loaded.voxel_type)),
         placement,
         VolumeSource::File {
             dataset: request.dataset.clone(),

@@ -239,7 +239,7 @@ pub fn load_dataset(
                 .placement
                 .unwrap_or(Placement::Spacing(info.spacing)),
         ),
-        normalization: overrides.normalization.unwrap_or(info.normalization),
+        normalization: Some(overrides.normalization.unwrap_or(info.normalization)),
         dataset: Some(info.name.to_string()),
         expected_sha256: Some(info.sha256.to_string()),
     })

@@ -27,6 +27,7 @@ impl Backend for Local {
             selection: run.selection.clone(),
             jobs: self.jobs,
             quiet: run.quiet,
+            time_limit: run.cell_timeout,
         };
         let summary = pool.install(|| render_cells(exp, run.cells, &plan, &options))?;
         print_summary(&exp.name, &summary);

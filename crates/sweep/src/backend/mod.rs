@@ -35,6 +35,8 @@ pub(crate) struct Run<'a> {
     pub(crate) quiet: bool,
     /// Build the report when every cell of a full run is done.
     pub(crate) report: bool,
+    /// Time limit per render (a march group or a reference).
+    pub(crate) cell_timeout: Option<std::time::Duration>,
 }
 
 /// How a run ended.

@@ -47,6 +47,8 @@ pub(crate) struct SlurmOptions {
     pub(crate) dry_run: bool,
     /// Block until the collect job has finished.
     pub(crate) wait: bool,
+    /// `--cell-timeout` for the tasks' `sweep run`.
+    pub(crate) cell_timeout: Option<std::time::Duration>,
 }
 
 /// Submits the run as a Slurm job array plus a collect job.
@@ -220,7 +222,7 @@ pub(crate) fn plan_submission(
         output: &output,
         logs: &dir.join("logs"),
     };
-    let array_script = scripts.array(cells, &tasks, quality, options.cpus_per_task);
+    let array_script = scripts.array(cells, &tasks, quality, options);
     let collect_script = scripts.collect();
     let (array_args, collect_args) = sbatch_args(&exp.name, &tasks, options, scripts.logs);
     Ok(SubmissionPlan {
@@ -253,16 +255,20 @@ impl Scripts<'_> {
         cells: &[CellSpec],
         tasks: &[Vec<usize>],
         quality: Quality,
-        cpus_per_task: Option<u32>,
+        options: &SlurmOptions,
     ) -> String {
         let quality_flag = match quality {
             Quality::Quick => " --quick",
             Quality::Paper => " --paper",
             Quality::Default => "",
         };
-        let threads = cpus_per_task
+        let mut threads = options
+            .cpus_per_task
             .map(|c| format!(" --threads {c}"))
             .unwrap_or_default();
+        if let Some(limit) = options.cell_timeout {
+            threads += &format!(" --cell-timeout {}", limit.as_secs_f64());
+        }
         let task_cells: Vec<String> = tasks
             .iter()
             .map(|t| format!("\"{}\"", compress_ranges(t)))

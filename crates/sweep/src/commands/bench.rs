@@ -9,7 +9,9 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use serde::Serialize;
-use volphot::{Layer, Scene, SearchPath, build_photon_map, load_params, peak_memory_bytes};
+use volphot::{
+    Control, Layer, Scene, SearchPath, build_photon_map, load_params, peak_memory_bytes,
+};
 
 use crate::cli::BenchArgs;
 
@@ -84,8 +86,8 @@ pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
         );
         let m = pool.install(|| -> Result<Measurement> {
             let start = std::time::Instant::now();
-            let map = build_photon_map(&s);
-            let out = volphot::render_march(&s, &[&map], &[], &|_| {})?;
+            let map = build_photon_map(&s, &Control::none())?;
+            let out = volphot::render_march(&s, &[&map], &[], &Control::none())?;
             let total = start.elapsed().as_secs_f64();
             let film = &out.films[0];
             Ok(Measurement {

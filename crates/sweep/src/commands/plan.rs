@@ -46,7 +46,15 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
     let start = std::time::Instant::now();
     let exp = Experiment::load(&args.experiment)?;
     let quality = args.quality.quality();
-    let (cells, hashes) = exp.plan_with_hashes(quality)?;
+    let size = exp.grid_size(quality)?;
+    if size > exp.max_cells && !args.yes {
+        println!(
+            "{} ({:?} quality): {size} cells, more than max_cells = {}; not expanded (pass --yes to list them; `sweep run` will ask for --yes too)",
+            exp.name, quality, exp.max_cells
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    let (cells, hashes) = exp.plan_with_hashes(quality, true)?;
     let plan_seconds = start.elapsed().as_secs_f64();
     println!(
         "{} ({:?} quality): {} cells",

@@ -16,15 +16,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
     let backend = args.backend()?;
     let quality = args.quality.quality();
     let exp = Experiment::load(&args.experiment)?;
-    let (cells, hashes) = exp.plan_with_hashes(quality)?;
-    anyhow::ensure!(
-        cells.len() <= exp.max_cells || args.yes,
-        "{}: the grid has {} cells, more than max_cells = {}; check it with `sweep plan {}` and pass --yes to run it",
-        exp.path().display(),
-        cells.len(),
-        exp.max_cells,
-        exp.path().display()
-    );
+    let (cells, hashes) = exp.plan_with_hashes(quality, args.yes)?;
     let output = args
         .output
         .clone()
@@ -38,6 +30,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
         selection: filter.resolve(cells.len())?,
         quiet: args.quiet,
         report: !args.no_report,
+        cell_timeout: args.cell_timeout,
     })?;
     Ok(outcome.exit_code())
 }

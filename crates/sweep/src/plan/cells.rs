@@ -78,11 +78,45 @@ impl Experiment {
         Ok(dims)
     }
 
+    /// The number of cells the grid has for a quality preset (combinations that no exclude
+    /// rule drops), counted without building any cell; grids beyond
+    /// [`MAX_COMBINATIONS`] are refused before counting.
+    pub(crate) fn grid_size(&self, quality: Quality) -> Result<usize> {
+        let dims = self.dimensions_for(quality)?;
+        let total = combinations(&dims)?;
+        // Each exclude rule as (dimension, key position, value) triples.
+        let rules: Vec<Vec<(usize, usize, &Value)>> = self
+            .exclude
+            .iter()
+            .map(|rule| {
+                rule.iter()
+                    .filter_map(|(k, v)| {
+                        dims.iter().enumerate().find_map(|(di, d)| {
+                            d.keys.iter().position(|dk| dk == k).map(|ki| (di, ki, v))
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut index = vec![0usize; dims.len()];
+        let mut count = 0;
+        for _ in 0..total {
+            let excluded = rules.iter().any(|rule| {
+                rule.iter()
+                    .all(|&(di, ki, v)| values_equal(&dims[di].values[index[di]][ki], v))
+            });
+            count += usize::from(!excluded);
+            advance(&mut index, &dims);
+        }
+        Ok(count)
+    }
+
     /// Expands the grid into cells for a quality preset; every cell's scene is validated and
-    /// errors point at the experiment file.
+    /// errors point at the experiment file. Check [`Experiment::grid_size`] first: this
+    /// builds every cell.
     pub(crate) fn plan(&self, quality: Quality) -> Result<Vec<CellSpec>> {
         let dims = self.dimensions_for(quality)?;
-        let total: usize = dims.iter().map(|d| d.values.len()).product();
+        let total = combinations(&dims)?;
         let mut cells = Vec::new();
         let mut index = vec![0usize; dims.len()];
         for _ in 0..total {
@@ -92,14 +126,7 @@ impl Experiment {
                     axes.push((k.clone(), v.clone()));
                 }
             }
-            // Advance the odometer (last dimension fastest).
-            for pos in (0..dims.len()).rev() {
-                index[pos] += 1;
-                if index[pos] < dims[pos].values.len() {
-                    break;
-                }
-                index[pos] = 0;
-            }
+            advance(&mut index, &dims);
             if self.excluded(&axes) {
                 continue;
             }
@@ -246,6 +273,44 @@ impl Experiment {
             (None, BaseScene::File(f)) => load(f),
             (None, BaseScene::Inline(t)) => Ok((t.clone(), dir)),
         }
+    }
+}
+
+/// Grids with more combinations than this (before exclusions) are refused outright: even
+/// counting them would take minutes, and no study needs them.
+pub(crate) const MAX_COMBINATIONS: u128 = 100_000_000;
+
+/// The number of combinations of the dimensions (before exclusions), refused beyond
+/// [`MAX_COMBINATIONS`].
+fn combinations(dims: &[Dimension]) -> Result<usize> {
+    let total = dims
+        .iter()
+        .try_fold(1u128, |acc, d| acc.checked_mul(d.values.len() as u128))
+        .unwrap_or(u128::MAX);
+    anyhow::ensure!(
+        total <= MAX_COMBINATIONS,
+        "the grid has {} combinations of its axes ({}), more than {MAX_COMBINATIONS} that sweep will count; split the study into several experiments or use fewer values per axis",
+        if total == u128::MAX {
+            "over 2^128".to_string()
+        } else {
+            total.to_string()
+        },
+        dims.iter()
+            .map(|d| format!("{} × {}", d.keys.join("+"), d.values.len()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(total as usize)
+}
+
+/// Advances the odometer `index` over `dims` (last dimension fastest).
+fn advance(index: &mut [usize], dims: &[Dimension]) {
+    for pos in (0..dims.len()).rev() {
+        index[pos] += 1;
+        if index[pos] < dims[pos].values.len() {
+            break;
+        }
+        index[pos] = 0;
     }
 }
 

@@ -68,6 +68,9 @@ pub(crate) use reference::{reference_key, reference_params};
 
 use crate::store::{PlanRecord, PlannedCell, VERSION, cell_hash};
 
+/// The most cells one run plans (each is validated and hashed, and `plan.json` lists them).
+pub(crate) const MAX_PLANNED_CELLS: usize = 1_000_000;
+
 /// Quality presets that scale resolution and photon counts without editing the file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub(crate) enum Quality {
@@ -213,11 +216,27 @@ impl Experiment {
         }
     }
 
-    /// The cells of the grid with their content addresses.
+    /// The cells of the grid with their content addresses. The grid's size is checked
+    /// before any cell is built: at most `max_cells` cells unless `yes`, and never more
+    /// than [`MAX_PLANNED_CELLS`].
     pub(crate) fn plan_with_hashes(
         &self,
         quality: Quality,
+        yes: bool,
     ) -> Result<(Vec<CellSpec>, Vec<String>)> {
+        let size = self.grid_size(quality)?;
+        anyhow::ensure!(
+            size <= MAX_PLANNED_CELLS,
+            "{}: the grid has {size} cells, more than the {MAX_PLANNED_CELLS} a run can plan; split the study into several experiments",
+            self.path().display()
+        );
+        anyhow::ensure!(
+            size <= self.max_cells || yes,
+            "{}: the grid has {size} cells, more than max_cells = {}; check it with `sweep plan {}` and pass --yes to run it",
+            self.path().display(),
+            self.max_cells,
+            self.path().display()
+        );
         let cells = self.plan(quality)?;
         let hashes = cells
             .iter()

@@ -30,6 +30,19 @@ pub(crate) struct GroupContext<'a> {
     pub(crate) caches: &'a Caches,
     pub(crate) search: &'a SearchPath,
     pub(crate) fail_on: &'a [usize],
+    /// Time limit per render (a march group or a reference).
+    pub(crate) time_limit: Option<std::time::Duration>,
+}
+
+impl GroupContext<'_> {
+    /// The control of one render: progress to `progress`, stopped at the time limit.
+    pub(crate) fn control<'p>(&self, progress: &'p (dyn Fn(u64) + Sync)) -> volphot::Control<'p> {
+        let control = volphot::Control::new(progress);
+        match self.time_limit {
+            Some(limit) => control.with_time_limit(limit),
+            None => control,
+        }
+    }
 }
 
 /// Renders one march group.
@@ -72,7 +85,7 @@ pub(crate) fn render_group(
         .iter()
         .map(|(j, _)| j.spec.params.integrator.clone())
         .collect();
-    let shared = volphot::render_shared(&scene, &integrators, progress)?;
+    let shared = volphot::render_shared(&scene, &integrators, &ctx.control(progress))?;
     let mut rendered = 0;
     // The per-cell locks in `jobs` are held until the cells are written.
     for ((job, _lock), result) in jobs.iter().zip(&shared.films) {

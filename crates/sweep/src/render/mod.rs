@@ -144,6 +144,8 @@ pub(crate) struct RenderOptions {
     pub(crate) jobs: usize,
     /// Hide progress bars.
     pub(crate) quiet: bool,
+    /// Time limit per render (a march group or a reference).
+    pub(crate) time_limit: Option<std::time::Duration>,
 }
 
 /// What a run did.
@@ -220,15 +222,43 @@ pub(crate) fn render_cells(
         let search = SearchPath::from_env();
         let caches = Caches::default();
         let multi = crate::progress::multi(opts.quiet);
-        summary.references = render_references(exp, &jobs, out, &caches, &search, &multi)?;
-        let groups = march_groups(jobs, exp.share);
         let ctx = GroupContext {
             out,
             caches: &caches,
             search: &search,
             fail_on: &failures_to_inject(),
+            time_limit: opts.time_limit,
         };
-        for outcome in render_groups(&groups, &ctx, opts.jobs, &multi) {
+        let (references, failed) = render_references(exp, &jobs, &ctx, &multi);
+        summary.references = references;
+        // Cells whose reference failed fail with it; the others go on.
+        let (jobs, without_reference): (Vec<Job>, Vec<Job>) = jobs.into_iter().partition(|j| {
+            j.reference
+                .as_ref()
+                .is_none_or(|k| !failed.iter().any(|(f, _)| f == k))
+        });
+        let mut outcomes = Vec::new();
+        if !without_reference.is_empty() {
+            let outcome = GroupOutcome {
+                failures: without_reference
+                    .iter()
+                    .map(|j| {
+                        let key = j.reference.as_deref().unwrap_or_default();
+                        let (_, e) = failed
+                            .iter()
+                            .find(|(f, _)| f == key)
+                            .expect("failed reference");
+                        (j.spec.index, format!("its reference {key} failed: {e}"))
+                    })
+                    .collect(),
+                ..Default::default()
+            };
+            record_failures(&without_reference, &outcome, out, &multi);
+            outcomes.push(outcome);
+        }
+        let groups = march_groups(jobs, exp.share);
+        outcomes.extend(render_groups(&groups, &ctx, opts.jobs, &multi));
+        for outcome in outcomes {
             summary.rendered += outcome.rendered;
             summary.photon_maps += outcome.photon_maps;
             summary.marches += usize::from(outcome.rendered > 0);
@@ -248,17 +278,16 @@ fn failures_to_inject() -> Vec<usize> {
         .unwrap_or_default()
 }
 
-/// Renders the references the jobs need, each once; returns how many were rendered.
+/// Renders the references the jobs need, each once; returns how many were rendered and
+/// which failed (with their errors).
 fn render_references(
     exp: &Experiment,
     jobs: &[Job],
-    out: &OutputDir,
-    caches: &Caches,
-    search: &SearchPath,
+    ctx: &GroupContext<'_>,
     multi: &indicatif::MultiProgress,
-) -> Result<usize> {
+) -> (usize, Vec<(String, String)>) {
     let Some(spec) = &exp.reference else {
-        return Ok(0);
+        return (0, Vec::new());
     };
     let mut needed: Vec<(&Job, &String)> = Vec::new();
     for job in jobs {
@@ -269,18 +298,24 @@ fn render_references(
         }
     }
     let mut rendered = 0;
+    let mut failed = Vec::new();
     for (job, key) in needed {
         let reference = ReferenceJob {
-            out,
+            out: ctx.out,
             key,
             cell: &job.spec,
             spec,
         };
-        if ensure_reference(&reference, caches, search, multi)? {
-            rendered += 1;
+        match ensure_reference(&reference, ctx, multi) {
+            Ok(true) => rendered += 1,
+            Ok(false) => {}
+            Err(e) => {
+                multi.suspend(|| eprintln!("reference {key} failed: {e:#}"));
+                failed.push((key.clone(), format!("{e:#}")));
+            }
         }
     }
-    Ok(rendered)
+    (rendered, failed)
 }
 
 /// Groups jobs that share a march (photon-mapping cells with equal [`volphot::march_key`]
@@ -420,7 +455,9 @@ mod tests {
     }
 
     fn jobs(exp: &Experiment) -> Vec<Job> {
-        let (cells, hashes) = exp.plan_with_hashes(crate::plan::Quality::Default).unwrap();
+        let (cells, hashes) = exp
+            .plan_with_hashes(crate::plan::Quality::Default, false)
+            .unwrap();
         cells
             .into_iter()
             .zip(hashes)
@@ -450,7 +487,9 @@ mod tests {
     fn render_cells_writes_each_cell_once_and_skips_finished_ones() {
         let tmp = tempfile::tempdir().unwrap();
         let exp = experiment(tmp.path());
-        let (cells, hashes) = exp.plan_with_hashes(crate::plan::Quality::Default).unwrap();
+        let (cells, hashes) = exp
+            .plan_with_hashes(crate::plan::Quality::Default, false)
+            .unwrap();
         let plan = exp
             .plan_record(&cells, &hashes, crate::plan::Quality::Default)
             .unwrap();
@@ -462,6 +501,7 @@ mod tests {
             selection: Selection::All,
             jobs: 1,
             quiet: true,
+            time_limit: None,
         };
         let first = render_cells(&exp, &cells, &plan, &options).unwrap();
         assert_eq!((first.rendered, first.marches, first.skipped), (4, 2, 0));

@@ -4,9 +4,9 @@
 use std::time::Instant;
 
 use anyhow::Result;
-use volphot::{Film, ReferenceAccumulator, Scene, SearchPath, write_png};
+use volphot::{Film, ReferenceAccumulator, Scene, write_png};
 
-use super::scenes::Caches;
+use super::group::GroupContext;
 use crate::plan::{CellSpec, ReferenceMethod, ReferenceSpec, reference_params};
 use crate::store::{
     OutputDir, ReferenceRecord, StagedDir, VERSION, lock_reference, read_reference_record,
@@ -24,8 +24,7 @@ pub(crate) struct ReferenceJob<'a> {
 /// Renders (or refines) a reference under its own lock; returns whether work was done.
 pub(crate) fn ensure_reference(
     job: &ReferenceJob<'_>,
-    caches: &Caches,
-    search: &SearchPath,
+    ctx: &GroupContext<'_>,
     multi: &indicatif::MultiProgress,
 ) -> Result<bool> {
     let dir = job.out.reference(job.key);
@@ -38,10 +37,11 @@ pub(crate) fn ensure_reference(
     {
         return Ok(false);
     }
-    let scene = caches.scene(&params, &job.cell.base_dir, search)?;
+    let scene = ctx.caches.scene(&params, &job.cell.base_dir, ctx.search)?;
     let bar = crate::progress::bar(multi, scene.camera().height() as u64, "reference", "rows");
     let start = Instant::now();
     let progress = |rows| bar.set_position(rows);
+    let control = ctx.control(&progress);
     let (film, passes) = match job.spec.method {
         ReferenceMethod::Path => {
             let mut acc = match &existing {
@@ -55,10 +55,10 @@ pub(crate) fn ensure_reference(
                 ),
             };
             let more = job.spec.spp - acc.passes();
-            acc.add_passes(&scene, more, &progress)?;
+            acc.add_passes(&scene, more, &control)?;
             (acc.film(), acc.passes())
         }
-        ReferenceMethod::Photon => (volphot::render(&scene, &progress)?.film, 0),
+        ReferenceMethod::Photon => (volphot::render(&scene, &control)?.film, 0),
     };
     bar.finish_and_clear();
     multi.remove(&bar);

@@ -18,6 +18,12 @@ pub use raw::{ByteOrder, RawLayout, VoxelType};
 /// Reads the voxels of a volume file, choosing the reader by extension (`.nrrd`/`.nhdr`,
 /// `.mhd`/`.mha`; anything else is headerless RAW and needs `raw_layout`).
 pub fn read_voxels(path: &Path, raw_layout: Option<&RawLayout>) -> Result<LoadedVoxels> {
+    if path.is_dir() {
+        return Err(Error::format(
+            path,
+            "is a directory; expected a volume file (.raw, .nrrd, .nhdr, .mhd or .mha)",
+        ));
+    }
     let ext = path
         .extension()
         .and_then(|e| e.to_str())

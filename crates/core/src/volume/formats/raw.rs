@@ -47,6 +47,11 @@ impl VoxelType {
         }
     }
 
+    /// Whether the type stores negative values (CT in Hounsfield units, floats).
+    pub fn is_signed(self) -> bool {
+        matches!(self, VoxelType::I8 | VoxelType::I16 | VoxelType::F32)
+    }
+
     /// Short name as used in scene files (`u8`, `u16`, `i16`, …).
     pub fn name(self) -> &'static str {
         match self {

@@ -1,0 +1,77 @@
+//! How a long render reports its progress and when it must stop: a [`Control`] carries a
+//! progress callback (rows or photon chunks finished) and an optional time limit, checked
+//! between rows and between photon chunks, so a runaway render ends with
+//! [`Error::TimeLimit`] instead of running on.
+
+use std::time::{Duration, Instant};
+
+use crate::error::{Error, Result};
+
+fn no_progress(_: u64) {}
+
+/// Progress callback and time limit of one render.
+#[derive(Clone, Copy)]
+pub struct Control<'a> {
+    progress: &'a (dyn Fn(u64) + Sync),
+    deadline: Option<(Instant, Duration)>,
+}
+
+impl std::fmt::Debug for Control<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Control")
+            .field("time_limit", &self.deadline.map(|(_, d)| d))
+            .finish()
+    }
+}
+
+impl Default for Control<'_> {
+    fn default() -> Self {
+        Control::none()
+    }
+}
+
+impl<'a> Control<'a> {
+    /// No progress reports, no time limit.
+    pub const fn none() -> Control<'static> {
+        Control {
+            progress: &no_progress,
+            deadline: None,
+        }
+    }
+
+    /// Reports progress to `progress` (rows finished so far, per call of a pass).
+    pub fn new(progress: &'a (dyn Fn(u64) + Sync)) -> Self {
+        Control {
+            progress,
+            deadline: None,
+        }
+    }
+
+    /// Stops the render with [`Error::TimeLimit`] once `limit` has passed from now.
+    pub fn with_time_limit(mut self, limit: Duration) -> Self {
+        self.deadline = Some((Instant::now() + limit, limit));
+        self
+    }
+
+    /// Reports that `rows` rows (or units) are finished.
+    #[inline]
+    pub(crate) fn report(&self, rows: u64) {
+        (self.progress)(rows);
+    }
+
+    /// Whether the time limit has passed (work should stop at the next boundary).
+    #[inline]
+    pub(crate) fn expired(&self) -> bool {
+        self.deadline.is_some_and(|(at, _)| Instant::now() >= at)
+    }
+
+    /// `Err(TimeLimit)` once the time limit has passed.
+    pub fn check(&self) -> Result<()> {
+        match self.deadline {
+            Some((at, limit)) if Instant::now() >= at => Err(Error::TimeLimit {
+                seconds: limit.as_secs_f64(),
+            }),
+            _ => Ok(()),
+        }
+    }
+}

@@ -1,0 +1,84 @@
+//! Inputs that used to change the picture silently or never finish (issue "Reliability").
+
+use std::path::Path;
+
+use volphot::{
+    Control, Layer, Normalization, Scene, SceneParams, SearchPath, VoxelType, render,
+    write_metaimage,
+};
+
+/// A 16³ CT in Hounsfield units: air (−1024) with a bone cube (1000) in the middle.
+fn write_ct(dir: &Path) {
+    let n = 16;
+    let values: Vec<f32> = (0..n * n * n)
+        .map(|i| {
+            let (x, y, z) = (i % n, (i / n) % n, i / (n * n));
+            let inside = [x, y, z].iter().all(|c| (5..11).contains(c));
+            if inside { 1000.0 } else { -1024.0 }
+        })
+        .collect();
+    write_metaimage(
+        &dir.join("ct.mhd"),
+        [n, n, n],
+        &values,
+        VoxelType::I16,
+        [1.0; 3],
+        false,
+    )
+    .unwrap();
+}
+
+fn ct_scene(dir: &Path, normalize: &str) -> Scene {
+    let src = format!(
+        "[volume]\nfile = \"ct.mhd\"\n{normalize}\n[sigma]\nt = 20\n[camera]\nresolution = [24, 24]\n[three_point]\n[integrator]\nvolume_photons = 3000\nstepsize = 0.01\n"
+    );
+    let params = SceneParams::from_toml(&src, &dir.join("ct.toml")).unwrap();
+    Scene::from_params(&params, dir, &SearchPath::new(vec![])).unwrap()
+}
+
+#[test]
+fn signed_ct_defaults_to_its_own_range_so_air_is_empty() {
+    let tmp = tempfile::tempdir().unwrap();
+    write_ct(tmp.path());
+    let default = ct_scene(tmp.path(), "");
+    let grid = default.medium().density_grid();
+    assert_eq!(grid.voxel(0, 0, 0), 0.0, "air maps to density 0");
+    assert_eq!(grid.voxel(8, 8, 8), 1.0, "bone maps to 1");
+    let record = default.medium().normalization();
+    assert_eq!(record.method, Normalization::MinMax);
+    assert_eq!((record.raw_lo, record.raw_hi), (-1024.0, 1000.0));
+    // The thesis's type range, asked for explicitly, still puts air at ~0.48: a solid block.
+    let type_range = ct_scene(tmp.path(), "normalize = \"type-range\"");
+    let air = type_range.medium().density_grid().voxel(0, 0, 0);
+    assert!((air - 0.484).abs() < 0.01, "{air}");
+    let mean = |s: &Scene| {
+        render(s, &Control::none())
+            .unwrap()
+            .film
+            .mean(Layer::Single)
+    };
+    assert!(
+        mean(&type_range) > 2.0 * mean(&default),
+        "the default shows the bone, not a block"
+    );
+    // Every output records the normalisation used.
+    let sidecar = serde_json::to_value(volphot::Provenance::of(&default)).unwrap();
+    assert_eq!(sidecar["normalization"]["method"], "min-max", "{sidecar}");
+    assert_eq!(sidecar["normalization"]["raw_lo"], -1024.0);
+}
+
+#[test]
+fn unsigned_data_keeps_the_thesis_type_range() {
+    assert_eq!(
+        Normalization::default_for(VoxelType::U8),
+        Normalization::TypeRange
+    );
+    assert_eq!(
+        Normalization::default_for(VoxelType::U16),
+        Normalization::TypeRange
+    );
+    assert_eq!(
+        Normalization::default_for(VoxelType::I16),
+        Normalization::MinMax
+    );
+}
