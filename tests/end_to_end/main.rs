@@ -1,6 +1,7 @@
 //! End-to-end tests: one binary (ripgrep style) that drives the real `sweep` executable.
 //!
 //! * `runs` — experiments, reports, resuming, locking, errors, `sweep render`;
+//! * `reliability` — inputs and events that used to hang, exhaust memory or mislead;
 //! * `claims` — the thesis's findings that the committed studies reproduce, on small grids;
 //! * `browser` — `report.html` in headless Chromium;
 //! * `slurm` — a real single-node Slurm cluster (CI or `VOLPHOT_SLURM_TEST=1`).
@@ -10,5 +11,6 @@
 
 mod browser;
 mod claims;
+mod reliability;
 mod runs;
 mod slurm;

@@ -98,8 +98,8 @@ pub use scene::{
     validate_params,
 };
 pub use util::{
-    cache_dir, memory_budget_bytes, peak_memory_bytes, sha256_bytes, sha256_cached, sha256_file,
-    temp_sibling, write_atomic, write_atomic_with,
+    cache_dir, hostname, is_stale_temp, memory_budget_bytes, peak_memory_bytes, sha256_bytes,
+    sha256_cached, sha256_content, sha256_file, temp_sibling, write_atomic, write_atomic_with,
 };
 pub use volume::{
     ByteOrder, DATASETS, DatasetInfo, DatasetOverrides, DatasetStatus, FileRequest, Grid,

@@ -170,20 +170,20 @@ impl PhotonMap {
     ) -> (Vec3, f32) {
         self.gather_into(p, v.nused as usize, v.maxdist, hits);
         let n = hits.len();
+        // The same arithmetic, in the same order, as the prefix sums of `estimates`, so a
+        // variant's value does not depend on which other variants share the query.
         let mut sum = Vec3::ZERO;
-        let mut r2 = 0.0f32;
-        for &(d2, i) in hits.iter() {
+        for &(_, i) in hits.iter() {
             let photon = &self.photons[i as usize];
-            let weight = match v.gathered {
-                Gathered::Flux => 1.0,
-                Gathered::Fluence if photon.sigma_t > 0.0 => 1.0 / photon.sigma_t,
-                Gathered::Fluence => 0.0,
-            };
-            sum += photon.power * (weight * phase.eval(photon.direction, wo));
-            r2 = r2.max(d2);
+            let contribution = photon.power * phase.eval(photon.direction, wo);
+            match v.gathered {
+                Gathered::Flux => sum += contribution,
+                Gathered::Fluence if photon.sigma_t > 0.0 => sum += contribution / photon.sigma_t,
+                Gathered::Fluence => {}
+            }
         }
         let r = if n == v.nused as usize {
-            r2.sqrt()
+            hits[n - 1].0.sqrt()
         } else {
             v.maxdist
         };

@@ -1,8 +1,11 @@
-//! sha256 of data files, cached by (canonical path, size, modification time) so that a
-//! 16 MiB volume is hashed once per machine, not once per render.
+//! sha256 of data files.
 //!
-//! The cache is a small JSON file in `$VOLPHOT_CACHE`, `$XDG_CACHE_HOME/volphot` or
-//! `~/.cache/volphot`; when none is writable the hash is simply recomputed.
+//! * [`sha256_content`] — what provenance and content addresses use: the file's bytes,
+//!   hashed once per process (a replaced file, even of the same size and modification
+//!   time, gets its new hash in the next run);
+//! * [`sha256_cached`] — for `sweep datasets --verify` only: cached across runs by
+//!   (canonical path, size, modification time) in a small JSON file in `$VOLPHOT_CACHE`,
+//!   `$XDG_CACHE_HOME/volphot` or `~/.cache/volphot`.
 
 use std::collections::BTreeMap;
 use std::io::Read;
@@ -45,6 +48,33 @@ pub fn sha256_file(path: &Path) -> Result<String> {
         hasher.update(&buf[..n]);
     }
     Ok(hex(&hasher.finalize()))
+}
+
+/// sha256 of a file's bytes, computed once per process per file (keyed by its canonical
+/// path, size and modification time within this process only).
+pub fn sha256_content(path: &Path) -> Result<String> {
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    type Key = (PathBuf, u64, u128);
+    static MEMO: OnceLock<Mutex<HashMap<Key, String>>> = OnceLock::new();
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    let key = (
+        std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()),
+        meta.len(),
+        meta.modified()
+            .ok()
+            .and_then(|t| t.duration_since(UNIX_EPOCH).ok())
+            .map_or(0, |d| d.as_nanos()),
+    );
+    let memo = MEMO.get_or_init(Default::default);
+    if let Some(sum) = memo.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
+        return Ok(sum.clone());
+    }
+    let sum = sha256_file(path)?;
+    memo.lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .insert(key, sum.clone());
+    Ok(sum)
 }
 
 /// sha256 of some bytes, lowercase hex.

@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 
-/// A temporary sibling of `path` that no other writer will pick (pid + counter).
+/// A temporary sibling of `path` that no other writer will pick: `.NAME.tmp-HOST-PID.N`
+/// (host, process and a counter), so a later run can tell a dead writer's leftovers from a
+/// live one's ([`is_stale_temp`]).
 pub fn temp_sibling(path: &Path) -> PathBuf {
     use std::sync::atomic::{AtomicU64, Ordering};
     static COUNTER: AtomicU64 = AtomicU64::new(0);
@@ -15,7 +17,41 @@ pub fn temp_sibling(path: &Path) -> PathBuf {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "out".into());
-    path.with_file_name(format!(".{name}.tmp.{}.{n}", std::process::id()))
+    path.with_file_name(format!(
+        ".{name}.tmp-{}-{}.{n}",
+        hostname(),
+        std::process::id()
+    ))
+}
+
+/// This machine's host name (outputs rendered on a cluster record where they ran).
+pub fn hostname() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_string())
+        .ok()
+        .filter(|h| !h.is_empty())
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .unwrap_or_else(|| "localhost".into())
+}
+
+/// Whether `name` is a temporary file or folder (`….tmp-HOST-PID` or `….tmp-HOST-PID.N`)
+/// left by a process of this host that no longer runs. Other hosts' temporaries (a shared
+/// file system) are never stale here.
+pub fn is_stale_temp(name: &str) -> bool {
+    let Some((_, owner)) = name.rsplit_once(".tmp-") else {
+        return false;
+    };
+    let owner = match owner.rsplit_once('.') {
+        Some((head, n)) if n.chars().all(|c| c.is_ascii_digit()) && !n.is_empty() => head,
+        _ => owner,
+    };
+    let Some((host, pid)) = owner.rsplit_once('-') else {
+        return false;
+    };
+    host == hostname()
+        && pid
+            .parse::<u32>()
+            .is_ok_and(|pid| !Path::new(&format!("/proc/{pid}")).exists())
 }
 
 /// Writes `bytes` to `path` atomically, creating parent folders.

@@ -336,7 +336,7 @@ pub struct FileRequest {
 /// Reads a volume file (choosing the reader by extension) and normalises it.
 pub fn read_volume(request: &FileRequest) -> Result<Volume> {
     let loaded = formats::read_voxels(&request.path, request.raw_layout.as_ref())?;
-    let sha256 = crate::util::sha256_cached(&loaded.data_path)?;
+    let sha256 = crate::util::sha256_content(&loaded.data_path)?;
     if let Some(expected) = &request.expected_sha256
         && !expected.eq_ignore_ascii_case(&sha256)
     {

@@ -4,7 +4,7 @@ use anyhow::Result;
 
 use super::{Backend, Outcome, Run};
 use crate::render::{RenderOptions, RunSummary, Selection, render_cells};
-use crate::store::{lock_folder, write_plan};
+use crate::store::{check_owner, lock_folder, write_plan};
 
 /// Renders on this machine.
 pub(crate) struct Local {
@@ -19,6 +19,7 @@ impl Backend for Local {
         let exp = run.experiment;
         let full = run.selection == Selection::All;
         let _lock = lock_folder(&run.output, full)?;
+        check_owner(&run.output, &exp.name)?;
         let plan = exp.plan_record(run.cells, run.hashes, run.quality)?;
         write_plan(&run.output, &plan, &exp.source.text)?;
         let pool = crate::render::thread_pool(self.threads)?;
@@ -43,9 +44,31 @@ impl Backend for Local {
     }
 }
 
+/// What the summary line adds when it happened: damaged cells, cells left to another run.
+fn notes(summary: &RunSummary) -> String {
+    let mut notes = Vec::new();
+    if summary.damaged > 0 {
+        notes.push(format!(
+            "{} damaged cell(s) rendered again",
+            summary.damaged
+        ));
+    }
+    if summary.busy > 0 {
+        notes.push(format!(
+            "{} cell(s) left to another run that is rendering them",
+            summary.busy
+        ));
+    }
+    if notes.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", notes.join("; "))
+    }
+}
+
 fn print_summary(name: &str, summary: &RunSummary) {
     eprintln!(
-        "{}: {} of {} cells selected; {} already done, {} rendered by {} march(es) with {} photon map(s), {} reference(s) rendered, {} failed, in {:.1} s",
+        "{}: {} of {} cells selected; {} already done, {} rendered by {} march(es) with {} photon map(s), {} reference(s) rendered, {} failed, in {:.1} s{}",
         name,
         summary.selected,
         summary.planned,
@@ -55,7 +78,8 @@ fn print_summary(name: &str, summary: &RunSummary) {
         summary.photon_maps,
         summary.references,
         summary.failed.len(),
-        summary.seconds
+        summary.seconds,
+        notes(summary)
     );
     for (index, message) in &summary.failed {
         eprintln!(

@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{Backend, Outcome, Run};
 use crate::plan::{CellSpec, Experiment, Quality};
-use crate::store::{OutputDir, VERSION, cell_hash, is_done, write_plan};
+use crate::store::{OutputDir, VERSION, cell_hash, check_owner, is_done, write_plan};
 
 /// Slurm options of `sweep run --backend slurm`, validated.
 #[derive(Debug, Clone, Default)]
@@ -462,6 +462,7 @@ pub(crate) fn print_jobs(out: &OutputDir) {
 impl Backend for Slurm {
     fn execute(&self, run: &Run<'_>) -> Result<Outcome> {
         let (exp, out) = (run.experiment, &run.output);
+        check_owner(out, &exp.name)?;
         std::fs::create_dir_all(out.root().join("slurm").join("logs"))?;
         let plan = exp.plan_record(run.cells, run.hashes, run.quality)?;
         write_plan(out, &plan, &exp.source.text)?;

@@ -5,11 +5,13 @@ use std::process::ExitCode;
 use anyhow::Result;
 
 use crate::cli::ReportArgs;
-use crate::store::{OutputDir, lock_folder};
+use crate::store::{OutputDir, lock_folder, read_plan};
 
 /// Rebuilds the report without rendering.
 pub(crate) fn run(args: &ReportArgs) -> Result<ExitCode> {
     let out = OutputDir::new(&args.dir);
+    // Only an output folder: nothing (not even a lock file) is written anywhere else.
+    read_plan(&out)?;
     // Hold a shared lock: a full run writing this folder would conflict.
     let _lock = lock_folder(&out, false)?;
     let path = crate::report::build_report(&out)?;

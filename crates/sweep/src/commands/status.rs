@@ -6,24 +6,28 @@ use anyhow::Result;
 
 use crate::backend::{compress_ranges, print_jobs};
 use crate::cli::StatusArgs;
-use crate::store::{OutputDir, cell_is_locked, is_done, read_plan};
+use crate::store::{CellState, OutputDir, cell_is_locked, cell_state, read_plan};
 
 /// Cell states as seen in the output folder (and by Slurm when a job was submitted).
 pub(crate) fn run(args: &StatusArgs) -> Result<ExitCode> {
     let out = OutputDir::new(&args.dir);
     let plan = read_plan(&out)?;
-    let (mut done, mut running, mut failed, mut pending) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut done, mut running, mut failed, mut pending, mut damaged) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for c in &plan.cells {
-        if is_done(&out.cell(&c.hash)) {
-            done.push(c.index);
-            continue;
+        match cell_state(&out.cell(&c.hash)) {
+            CellState::Done(_) => {
+                done.push(c.index);
+                continue;
+            }
+            CellState::Damaged(why) => damaged.push((c.index, why)),
+            CellState::Missing => {}
         }
         if cell_is_locked(&out, &c.hash) {
             running.push(c.index);
         } else if out.failure(&c.hash).is_file() {
             failed.push(c.index);
-        } else {
+        } else if !damaged.iter().any(|(i, _)| *i == c.index) {
             pending.push(c.index);
         }
     }
@@ -38,6 +42,15 @@ pub(crate) fn run(args: &StatusArgs) -> Result<ExitCode> {
     println!("  running  {:>5}  {}", running.len(), list(&running));
     println!("  failed   {:>5}  {}", failed.len(), list(&failed));
     println!("  pending  {:>5}  {}", pending.len(), list(&pending));
+    let damaged_indices: Vec<usize> = damaged.iter().map(|(i, _)| *i).collect();
+    println!(
+        "  damaged  {:>5}  {}",
+        damaged.len(),
+        list(&damaged_indices)
+    );
+    for (index, why) in &damaged {
+        println!("  cell {index}: damaged: {why} (`sweep run` renders it again)");
+    }
     for index in &failed {
         let c = &plan.cells[*index];
         println!("  cell {index}: {}", out.failure(&c.hash).display());

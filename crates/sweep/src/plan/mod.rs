@@ -142,11 +142,7 @@ impl Experiment {
             path: path.to_path_buf(),
             text,
         };
-        let name = file.name.clone().unwrap_or_else(|| {
-            path.file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "experiment".into())
-        });
+        let name = experiment_name(&source, &file)?;
         let base = base_scene(&source, &file)?;
         let mut set = Vec::new();
         flatten_set(&file.set, "", &mut set);
@@ -288,6 +284,45 @@ impl Experiment {
             cells: planned,
         })
     }
+}
+
+/// The experiment's name (the file stem unless given): a plain name, because it becomes the
+/// default output folder `reports/<name>/`.
+fn experiment_name(source: &Source, file: &ExperimentFile) -> Result<String> {
+    let (name, given) = match &file.name {
+        Some(n) => (n.clone(), true),
+        None => (
+            source
+                .path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            false,
+        ),
+    };
+    let plain = !name.is_empty()
+        && name.len() <= 100
+        && name
+            .chars()
+            .next()
+            .is_some_and(|c| c.is_ascii_alphanumeric())
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
+    if plain {
+        return Ok(name);
+    }
+    let expected = "a plain name of letters, digits, `-`, `_` and `.`, starting with a letter or digit (it names the output folder reports/<name>/)";
+    Err(if given {
+        source.error("name", format!("`name` = {name:?}: expected {expected}"))
+    } else {
+        source.error(
+            "name",
+            format!(
+                "the file name gives the experiment name {name:?}; add `name = \"…\"`: {expected}"
+            ),
+        )
+    })
 }
 
 /// The base scene: a file, an inline table, or (with a `scene` axis) none.

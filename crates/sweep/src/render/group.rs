@@ -8,18 +8,26 @@ use super::Job;
 use super::scenes::Caches;
 use crate::analyse::{analyse_cell, compare_with_reference};
 use crate::store::{
-    CellLock, CellRecord, CellTimings, OutputDir, StagedDir, VERSION, hostname, is_done,
-    try_lock_cell, write_record,
+    CELL_FILES, CellLock, CellRecord, CellTimings, FileCheck, OutputDir, StagedDir, VERSION,
+    hostname, is_done, try_lock_cell, write_record,
 };
 
 /// Environment switch for tests: cell indices (comma-separated) whose rendering fails on
 /// purpose, to exercise failure reporting and resubmission.
 pub(crate) const FAIL_CELLS_ENV: &str = "VOLPHOT_FAIL_CELLS";
 
+/// Environment switch for tests: cell indices whose rendering panics on purpose, to check
+/// that a panic fails only its cells.
+pub(crate) const PANIC_CELLS_ENV: &str = "VOLPHOT_PANIC_CELLS";
+
 /// What rendering one march group produced.
 #[derive(Default)]
 pub(crate) struct GroupOutcome {
     pub(crate) rendered: usize,
+    /// Cells another process was rendering (locked), left to it.
+    pub(crate) busy: usize,
+    /// Cells another process finished meanwhile.
+    pub(crate) done_elsewhere: usize,
     pub(crate) photon_maps: usize,
     pub(crate) failures: Vec<(usize, String)>,
 }
@@ -30,6 +38,8 @@ pub(crate) struct GroupContext<'a> {
     pub(crate) caches: &'a Caches,
     pub(crate) search: &'a SearchPath,
     pub(crate) fail_on: &'a [usize],
+    /// Cells whose rendering panics on purpose ([`PANIC_CELLS_ENV`]).
+    pub(crate) panic_on: &'a [usize],
     /// Time limit per render (a march group or a reference).
     pub(crate) time_limit: Option<std::time::Duration>,
 }
@@ -54,6 +64,7 @@ pub(crate) fn render_group(
     let mut failures = Vec::new();
     // Per-cell locks: skip cells another process is rendering right now.
     let mut jobs: Vec<(&Job, CellLock)> = Vec::new();
+    let (mut busy, mut done_elsewhere) = (0, 0);
     for job in group {
         if ctx.fail_on.contains(&job.spec.index) {
             failures.push((
@@ -63,15 +74,20 @@ pub(crate) fn render_group(
             continue;
         }
         let Some(lock) = try_lock_cell(ctx.out, &job.hash)? else {
+            busy += 1;
             continue;
         };
-        if !is_done(&ctx.out.cell(&job.hash)) {
+        if is_done(&ctx.out.cell(&job.hash)) {
+            done_elsewhere += 1;
+        } else {
             jobs.push((job, lock));
         }
     }
     if jobs.is_empty() {
         return Ok(GroupOutcome {
             failures,
+            busy,
+            done_elsewhere,
             ..Default::default()
         });
     }
@@ -85,6 +101,15 @@ pub(crate) fn render_group(
         .iter()
         .map(|(j, _)| j.spec.params.integrator.clone())
         .collect();
+    if let Some((job, _)) = jobs
+        .iter()
+        .find(|(j, _)| ctx.panic_on.contains(&j.spec.index))
+    {
+        panic!(
+            "panic injected by {PANIC_CELLS_ENV} in cell {}",
+            job.spec.index
+        );
+    }
     let shared = volphot::render_shared(&scene, &integrators, &ctx.control(progress))?;
     let mut rendered = 0;
     // The per-cell locks in `jobs` are held until the cells are written.
@@ -111,6 +136,8 @@ pub(crate) fn render_group(
     }
     Ok(GroupOutcome {
         rendered,
+        busy,
+        done_elsewhere,
         photon_maps: shared.photon_maps,
         failures,
     })
@@ -163,6 +190,10 @@ fn write_cell(
         version: VERSION.to_string(),
         threads: rayon::current_num_threads(),
         host: hostname(),
+        files: CELL_FILES
+            .iter()
+            .map(|f| FileCheck::of(dir, f))
+            .collect::<Result<_>>()?,
     };
     write_record(dir, &record)?;
     staged.commit()?;

@@ -23,13 +23,13 @@ use std::time::Instant;
 use anyhow::Result;
 use volphot::{Method, SearchPath};
 
-pub(crate) use group::FAIL_CELLS_ENV;
+pub(crate) use group::{FAIL_CELLS_ENV, PANIC_CELLS_ENV};
 use group::{GroupContext, GroupOutcome, render_group};
 use reference::{ReferenceJob, ensure_reference};
 use scenes::Caches;
 
 use crate::plan::{CellSpec, Experiment, toml_to_json};
-use crate::store::{OutputDir, PlanRecord, clean_stale, hostname, is_done};
+use crate::store::{CellState, OutputDir, PlanRecord, cell_state, clean_stale, hostname};
 
 /// Which cells of a plan a run renders.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -157,6 +157,10 @@ pub(crate) struct RunSummary {
     pub(crate) selected: usize,
     /// Cells already finished before the run.
     pub(crate) skipped: usize,
+    /// Cells found damaged (and rendered again).
+    pub(crate) damaged: usize,
+    /// Cells left to another run that was rendering them.
+    pub(crate) busy: usize,
     /// Cells rendered now.
     pub(crate) rendered: usize,
     /// Cells that failed (with their errors).
@@ -208,9 +212,16 @@ pub(crate) fn render_cells(
     };
     let mut jobs = Vec::new();
     for &i in &selected {
-        if is_done(&out.cell(&plan.cells[i].hash)) {
-            summary.skipped += 1;
-            continue;
+        match cell_state(&out.cell(&plan.cells[i].hash)) {
+            CellState::Done(_) => {
+                summary.skipped += 1;
+                continue;
+            }
+            CellState::Damaged(why) => {
+                eprintln!("cell {i} is damaged ({why}); rendering it again");
+                summary.damaged += 1;
+            }
+            CellState::Missing => {}
         }
         jobs.push(Job {
             spec: cells[i].clone(),
@@ -226,7 +237,8 @@ pub(crate) fn render_cells(
             out,
             caches: &caches,
             search: &search,
-            fail_on: &failures_to_inject(),
+            fail_on: &cells_from_env(FAIL_CELLS_ENV),
+            panic_on: &cells_from_env(PANIC_CELLS_ENV),
             time_limit: opts.time_limit,
         };
         let (references, failed) = render_references(exp, &jobs, &ctx, &multi);
@@ -260,6 +272,8 @@ pub(crate) fn render_cells(
         outcomes.extend(render_groups(&groups, &ctx, opts.jobs, &multi));
         for outcome in outcomes {
             summary.rendered += outcome.rendered;
+            summary.busy += outcome.busy;
+            summary.skipped += outcome.done_elsewhere;
             summary.photon_maps += outcome.photon_maps;
             summary.marches += usize::from(outcome.rendered > 0);
             summary.failed.extend(outcome.failures);
@@ -270,9 +284,9 @@ pub(crate) fn render_cells(
     Ok(summary)
 }
 
-/// Cells whose rendering fails on purpose ([`FAIL_CELLS_ENV`]).
-fn failures_to_inject() -> Vec<usize> {
-    std::env::var(FAIL_CELLS_ENV)
+/// Cells named by a test switch ([`FAIL_CELLS_ENV`], [`PANIC_CELLS_ENV`]).
+fn cells_from_env(var: &str) -> Vec<usize> {
+    std::env::var(var)
         .ok()
         .map(|v| v.split(',').filter_map(|s| s.trim().parse().ok()).collect())
         .unwrap_or_default()
@@ -355,7 +369,11 @@ fn render_groups(
             &format!("cell {}", group[0].spec.index),
             "rows",
         );
-        let outcome = render_group(group, ctx, &|rows| bar.set_position(rows));
+        // A panic fails the group's cells like an error does; the rest of the grid goes on.
+        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            render_group(group, ctx, &|rows| bar.set_position(rows))
+        }))
+        .unwrap_or_else(|payload| Err(anyhow::anyhow!("panicked: {}", panic_message(&payload))));
         bar.finish_and_clear();
         multi.remove(&bar);
         let outcome = outcome.unwrap_or_else(|e| GroupOutcome {
@@ -374,13 +392,22 @@ fn render_groups(
             scope.spawn(|| {
                 while let Some(group) = groups.get(next.fetch_add(1, Ordering::Relaxed)) {
                     let r = render_one(group);
-                    results.lock().expect("results lock").push(r);
+                    results.lock().unwrap_or_else(|e| e.into_inner()).push(r);
                 }
             });
         }
     });
     overall.finish_and_clear();
-    results.into_inner().expect("results lock")
+    results.into_inner().unwrap_or_else(|e| e.into_inner())
+}
+
+/// The message of a panic payload (`panic!` with a literal or a formatted string).
+fn panic_message(payload: &Box<dyn std::any::Any + Send>) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "(no message)".into())
 }
 
 /// Writes each failed cell's error to `failed/<hash>.txt` and prints it.

@@ -9,8 +9,8 @@ use volphot::{Film, ReferenceAccumulator, Scene, write_png};
 use super::group::GroupContext;
 use crate::plan::{CellSpec, ReferenceMethod, ReferenceSpec, reference_params};
 use crate::store::{
-    OutputDir, ReferenceRecord, StagedDir, VERSION, lock_reference, read_reference_record,
-    write_reference_record,
+    FileCheck, OutputDir, ReferenceRecord, StagedDir, VERSION, first_mismatch, lock_reference,
+    read_reference_record, write_reference_record,
 };
 
 /// What a reference needs: where it goes, the cell that defines its physics, how it is made.
@@ -31,7 +31,23 @@ pub(crate) fn ensure_reference(
     // Blocking: another task may be rendering this reference right now.
     let lock = lock_reference(job.out, job.key)?;
     let params = reference_params(&job.cell.params, job.spec)?;
-    let existing = read_reference_record(&dir).ok();
+    let existing = match read_reference_record(&dir) {
+        Ok(r) => match first_mismatch(&dir, &r.files).or_else(|| {
+            (!dir.join("reference.exr").is_file()).then(|| "reference.exr is missing".into())
+        }) {
+            None => Some(r),
+            Some(why) => {
+                multi.suspend(|| {
+                    eprintln!(
+                        "reference {} is damaged ({why}); rendering it again",
+                        job.key
+                    )
+                });
+                None
+            }
+        },
+        Err(_) => None,
+    };
     if let Some(r) = &existing
         && (job.spec.method != ReferenceMethod::Path || r.passes >= job.spec.spp)
     {
@@ -68,6 +84,7 @@ pub(crate) fn ensure_reference(
         job.key
     );
     let record = ReferenceRecord {
+        files: Vec::new(),
         key: job.key.to_string(),
         method: job.spec.method,
         passes,
@@ -98,7 +115,12 @@ fn write_reference(
         &film.total(),
         scene.film().exposure,
     )?;
-    write_reference_record(staged.path(), record)?;
+    let mut record = record.clone();
+    record.files = ["reference.exr", "reference.png"]
+        .iter()
+        .map(|f| FileCheck::of(staged.path(), f))
+        .collect::<Result<_>>()?;
+    write_reference_record(staged.path(), &record)?;
     if dir.exists() {
         std::fs::remove_dir_all(dir)?;
     }

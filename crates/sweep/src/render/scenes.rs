@@ -15,13 +15,13 @@ fn cached<T>(
     key: &str,
     make: impl FnOnce() -> Result<T>,
 ) -> Result<Arc<T>> {
-    if let Some(v) = cache.lock().expect("cache lock").get(key) {
+    if let Some(v) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(key) {
         return Ok(Arc::clone(v));
     }
     let v = Arc::new(make()?);
     cache
         .lock()
-        .expect("cache lock")
+        .unwrap_or_else(|e| e.into_inner())
         .insert(key.to_string(), Arc::clone(&v));
     Ok(v)
 }

@@ -8,8 +8,9 @@ use volphot::Film;
 
 use crate::analyse::{compare_with_reference, displayed, image_stats};
 use crate::store::{
-    CellRecord, IMAGE_STATS_VERSION, OutputDir, PlanRecord, PlannedCell, ReferenceMetrics, is_done,
-    read_plan, read_record, read_reference_metrics, read_reference_record, write_record,
+    CellRecord, CellState, IMAGE_STATS_VERSION, OutputDir, PlanRecord, PlannedCell,
+    ReferenceMetrics, cell_state, read_plan, read_reference_metrics, read_reference_record,
+    write_record,
 };
 
 /// One cell's collected state.
@@ -22,13 +23,17 @@ pub(crate) struct Collected {
     pub(crate) reference: Option<ReferenceMetrics>,
     /// Error text of a failed attempt.
     pub(crate) failure: Option<String>,
+    /// Why a finished cell is not whole (a file missing, truncated or altered).
+    pub(crate) damaged: Option<String>,
 }
 
 impl Collected {
-    /// `done`, `failed` or `pending`.
+    /// `done`, `damaged`, `failed` or `pending`.
     pub(crate) fn status(&self) -> &'static str {
         if self.record.is_some() {
             "done"
+        } else if self.damaged.is_some() {
+            "damaged"
         } else if self.failure.is_some() {
             "failed"
         } else {
@@ -45,14 +50,16 @@ pub(crate) fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
         let dir = out.cell(&p.hash);
         // The film is read only if something has to be recomputed from it, and then once.
         let mut film = None;
-        let record = if is_done(&dir) {
-            let mut record = read_record(&dir)?;
-            if record.image.version != IMAGE_STATS_VERSION {
-                refresh_image_stats(&dir, &mut record, cell_film(&dir, &mut film)?)?;
+        let (record, damaged) = match cell_state(&dir) {
+            CellState::Done(record) => {
+                let mut record = *record;
+                if record.image.version != IMAGE_STATS_VERSION {
+                    refresh_image_stats(&dir, &mut record, cell_film(&dir, &mut film)?)?;
+                }
+                (Some(record), None)
             }
-            Some(record)
-        } else {
-            None
+            CellState::Damaged(why) => (None, Some(why)),
+            CellState::Missing => (None, None),
         };
         let mut reference = None;
         if let (Some(r), Some(key)) = (&record, &p.reference) {
@@ -73,6 +80,7 @@ pub(crate) fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
             record,
             reference,
             failure,
+            damaged,
         });
     }
     Ok((plan, cells))

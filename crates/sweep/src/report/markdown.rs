@@ -75,11 +75,17 @@ impl Report<'_> {
         if !self.experiment.description.is_empty() {
             let _ = writeln!(s, "{}\n", self.experiment.description.trim());
         }
+        let damaged = self.cells.iter().filter(|c| c.damaged.is_some()).count();
         let _ = writeln!(
             s,
-            "- cells: {} planned, {done} done, {failed} failed, {} pending",
+            "- cells: {} planned, {done} done, {failed} failed, {} pending{}",
             self.cells.len(),
-            self.cells.len() - done - failed
+            self.cells.len() - done - failed - damaged,
+            if damaged > 0 {
+                format!(", {damaged} damaged (`sweep run` renders them again)")
+            } else {
+                String::new()
+            }
         );
         let _ = writeln!(
             s,

@@ -20,7 +20,7 @@ use collect::collect;
 use table::{CsvExporter, Exporter, JsonExporter, Table, cells_table};
 
 use crate::plan::Experiment;
-use crate::store::OutputDir;
+use crate::store::{OutputDir, clean_stale};
 
 /// Everything a report links to.
 #[derive(Default)]
@@ -31,8 +31,21 @@ pub(crate) struct Figures {
     comparisons: Vec<(String, Table)>,
 }
 
+/// Removes what a killed report left half-written (its files are written atomically through
+/// temporaries) in the folder and its figure folders.
+fn remove_stale_temporaries(out: &OutputDir) {
+    clean_stale(out.root());
+    clean_stale(&out.figures());
+    if let Ok(entries) = std::fs::read_dir(out.figures()) {
+        for dir in entries.flatten().filter(|e| e.path().is_dir()) {
+            clean_stale(&dir.path());
+        }
+    }
+}
+
 /// Builds `cells.csv`, `cells.json`, figures, `report.md` and `report.html`.
 pub(crate) fn build_report(out: &OutputDir) -> Result<PathBuf> {
+    remove_stale_temporaries(out);
     let (plan, cells) = collect(out)?;
     let table = cells_table(&plan, &cells);
     volphot::write_atomic(

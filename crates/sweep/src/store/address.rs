@@ -22,7 +22,7 @@ pub(crate) fn volume_identity(params: &SceneParams, base: &Path) -> Result<Strin
     }
     if let Some(f) = &v.file {
         let path = base.join(f);
-        return volphot::sha256_cached(&path)
+        return volphot::sha256_content(&path)
             .with_context(|| format!("hashing volume file {}", path.display()));
     }
     Ok(String::new())
@@ -39,7 +39,7 @@ pub(crate) fn cell_hash(params: &SceneParams, base: &Path) -> Result<String> {
     if let Some(f) = &params.transfer.file {
         let path = base.join(f);
         text += "\n";
-        text += &volphot::sha256_cached(&path).unwrap_or_else(|_| path.display().to_string());
+        text += &volphot::sha256_content(&path).unwrap_or_else(|_| path.display().to_string());
     }
     Ok(volphot::sha256_bytes(text.as_bytes())[..16].to_string())
 }

@@ -12,6 +12,7 @@ mod address;
 mod lock;
 mod records;
 mod staging;
+mod verify;
 
 use std::path::{Path, PathBuf};
 
@@ -19,6 +20,7 @@ pub(crate) use address::{cell_hash, reference_hash, volume_identity};
 pub(crate) use lock::{CellLock, cell_is_locked, lock_folder, lock_reference, try_lock_cell};
 pub(crate) use records::*;
 pub(crate) use staging::{StagedDir, clean_stale};
+pub(crate) use verify::{CELL_FILES, CellState, FileCheck, cell_state, first_mismatch};
 
 /// Program version recorded in every output.
 pub(crate) const VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -71,12 +73,58 @@ impl OutputDir {
     }
 }
 
-/// This machine's host name (cells rendered on a cluster record where they ran).
-pub(crate) fn hostname() -> String {
-    std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .map(|h| h.trim().to_string())
-        .ok()
-        .filter(|h| !h.is_empty())
-        .or_else(|| std::env::var("HOSTNAME").ok())
-        .unwrap_or_else(|| "localhost".into())
+pub(crate) use volphot::hostname;
+
+/// What a sweep output folder holds at its top level.
+const OUTPUT_ENTRIES: [&str; 14] = [
+    ".lock",
+    "plan.json",
+    "experiment.toml",
+    "cells",
+    "references",
+    "figures",
+    "failed",
+    "slurm",
+    "cells.csv",
+    "cells.json",
+    "report.md",
+    "report.html",
+    "explorer",
+    "tune",
+];
+
+/// Refuses an output folder that belongs to another experiment (its `plan.json` names
+/// another) or that holds anything a sweep run did not write; a new or empty folder, or
+/// one of this experiment, is fine.
+pub(crate) fn check_owner(out: &OutputDir, experiment: &str) -> anyhow::Result<()> {
+    if let Ok(plan) = read_plan(out) {
+        anyhow::ensure!(
+            plan.experiment == experiment,
+            "{} holds the cells of experiment `{}` (from {}), not `{experiment}`; choose another --output or remove that folder",
+            out.root().display(),
+            plan.experiment,
+            plan.experiment_file.display()
+        );
+        return Ok(());
+    }
+    let Ok(entries) = std::fs::read_dir(out.root()) else {
+        return Ok(());
+    };
+    let foreign: Vec<String> = entries
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !OUTPUT_ENTRIES.contains(&n.as_str()) && !n.starts_with('.'))
+        .collect();
+    anyhow::ensure!(
+        foreign.is_empty(),
+        "{} is not a sweep output folder and not empty (it holds {}); choose a new or empty --output",
+        out.root().display(),
+        foreign
+            .iter()
+            .take(5)
+            .map(|n| format!("`{n}`"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(())
 }

@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use volphot::{PhotonStats, Provenance, SceneParams, VolumeSource};
 
-use super::OutputDir;
+use super::{FileCheck, OutputDir};
 
 /// Version of the reference metrics; stored metrics of another version are recomputed.
 pub(crate) const REFERENCE_METRICS_VERSION: u32 = 2;
@@ -147,11 +147,15 @@ pub(crate) struct CellRecord {
     pub(crate) threads: usize,
     /// Host that rendered it.
     pub(crate) host: String,
+    /// Size and sha256 of every file of the cell, to tell a finished cell from a damaged
+    /// one (empty in records written before files were checked).
+    #[serde(default)]
+    pub(crate) files: Vec<FileCheck>,
 }
 
-/// Whether a cell has finished (its record exists).
+/// Whether a cell has finished and is whole (see [`super::cell_state`]).
 pub(crate) fn is_done(dir: &Path) -> bool {
-    dir.join("cell.json").is_file()
+    matches!(super::cell_state(dir), super::CellState::Done(_))
 }
 
 /// Reads a finished cell's record.
@@ -268,6 +272,9 @@ pub(crate) struct ReferenceRecord {
     pub(crate) volume: VolumeSource,
     /// Program version.
     pub(crate) version: String,
+    /// Size and sha256 of `reference.exr` and `reference.png` (empty in older records).
+    #[serde(default)]
+    pub(crate) files: Vec<FileCheck>,
 }
 
 /// Reads a reference's record.

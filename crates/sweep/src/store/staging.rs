@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 
-use super::{hostname, is_done};
+use super::hostname;
 
 /// A cell folder being filled: a temporary sibling renamed into place by [`StagedDir::commit`].
 pub(crate) struct StagedDir {
@@ -36,10 +36,12 @@ impl StagedDir {
         &self.tmp
     }
 
-    /// Renames the folder into place (replacing an unfinished one).
+    /// Renames the folder into place, replacing what was there (an unfinished or damaged
+    /// folder: the caller holds the cell's lock and decided to render it).
     pub(crate) fn commit(self) -> Result<()> {
-        if self.target.exists() && !is_done(&self.target) {
-            let _ = std::fs::remove_dir_all(&self.target);
+        if self.target.exists() {
+            std::fs::remove_dir_all(&self.target)
+                .with_context(|| format!("replacing {}", self.target.display()))?;
         }
         std::fs::rename(&self.tmp, &self.target)
             .with_context(|| format!("moving {} to {}", self.tmp.display(), self.target.display()))
@@ -53,26 +55,21 @@ impl Drop for StagedDir {
     }
 }
 
-/// Removes temporary folders left by processes of this host that no longer run. Folders
-/// of other hosts (a shared file system on a cluster) are left alone.
+/// Removes temporary files and folders (`….tmp-HOST-PID…`) left in `dir` by processes of
+/// this host that no longer run: a killed render's staged cell, a killed report's half-written
+/// figure. Other hosts' temporaries (a shared file system on a cluster) are left alone.
 pub(crate) fn clean_stale(dir: &Path) {
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
     };
-    let host = hostname();
     for entry in entries.flatten() {
-        let name = entry.file_name().to_string_lossy().into_owned();
-        let Some((_, owner)) = name.rsplit_once(".tmp-") else {
-            continue;
-        };
-        let Some((owner_host, pid)) = owner.rsplit_once('-') else {
-            continue;
-        };
-        if owner_host == host
-            && let Ok(pid) = pid.parse::<u32>()
-            && !Path::new(&format!("/proc/{pid}")).exists()
-        {
-            let _ = std::fs::remove_dir_all(entry.path());
+        if volphot::is_stale_temp(&entry.file_name().to_string_lossy()) {
+            let path = entry.path();
+            let _ = if path.is_dir() {
+                std::fs::remove_dir_all(&path)
+            } else {
+                std::fs::remove_file(&path)
+            };
         }
     }
 }
