@@ -132,18 +132,22 @@ pub fn key_at(src: &str, offset: usize) -> Option<String> {
 }
 
 /// Turns a keyed [`Error::Parameter`] into an [`Error::Scene`] at the key's position.
+/// Errors about the scene's volume (a dataset that is not on the search path, a file whose
+/// checksum differs) are located at the `[volume]` key that named it.
 pub fn locate_error(err: Error, src: &str, file: &Path) -> Error {
-    match &err {
-        Error::Parameter { key, .. } => {
-            let (line, column) = locate(src, key).unwrap_or((1, 1));
-            Error::Scene {
-                file: file.to_path_buf(),
-                line,
-                column,
-                message: err.to_string(),
-            }
-        }
-        _ => err,
+    let key = match &err {
+        Error::Parameter { key, .. } => key.as_str(),
+        Error::DatasetNotFound { .. } => "volume.dataset",
+        Error::Checksum { .. } if locate(src, "volume.sha256").is_some() => "volume.sha256",
+        Error::Checksum { .. } => "volume.dataset",
+        _ => return err,
+    };
+    let (line, column) = locate(src, key).unwrap_or((1, 1));
+    Error::Scene {
+        file: file.to_path_buf(),
+        line,
+        column,
+        message: err.to_string(),
     }
 }
 

@@ -102,6 +102,20 @@ impl PhantomParams {
                 "three voxel counts in [2, 1024]",
             ));
         }
+        // The grid and the medium's transferred copy, as f32.
+        let bytes = self.resolution.iter().map(|&n| n as u64).product::<u64>() * 8;
+        let budget = crate::util::memory_budget_bytes();
+        if bytes > budget {
+            return Err(Error::parameter(
+                "resolution",
+                format!("{:?}", self.resolution),
+                format!(
+                    "a grid whose {} MiB of working memory fits in the {} MiB available",
+                    bytes >> 20,
+                    budget >> 20
+                ),
+            ));
+        }
         let unit = |key: &str, v: f32| -> Result<()> {
             if v.is_finite() && (0.0..=1.0).contains(&v) {
                 Ok(())

@@ -44,6 +44,8 @@ mod axes;
 mod cells;
 mod checks;
 mod file;
+#[cfg(test)]
+mod fuzz;
 mod keys;
 mod reference;
 mod source;

@@ -807,7 +807,17 @@ impl Payload<'_> {
 /// Reads exactly `expected` voxel bytes as described by `p`.
 pub(super) fn read_payload(p: &Payload<'_>) -> Result<Vec<u8>> {
     let io = |e: std::io::Error| Error::io(p.path, e);
-    let mut file = File::open(p.path).map_err(io)?;
+    let mut file = File::open(p.path).map_err(|e| {
+        if p.path == p.header {
+            Error::io(p.path, e)
+        } else {
+            // A detached header names its data file: say which header, and which file.
+            Error::format(
+                p.header,
+                format!("its data file {} cannot be opened: {e}", p.path.display()),
+            )
+        }
+    })?;
     match p.codec {
         Codec::Raw => read_raw(p, file),
         Codec::Gzip => {

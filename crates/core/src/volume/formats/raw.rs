@@ -185,7 +185,18 @@ pub fn encode(values: &[f32], voxel: VoxelType, order: ByteOrder) -> Vec<u8> {
 pub fn read(path: &Path, layout: &RawLayout) -> Result<LoadedVoxels> {
     check_dims(path, layout.dims)?;
     let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
-    let expected = layout.data_bytes() + layout.header_bytes;
+    let expected = layout
+        .data_bytes()
+        .checked_add(layout.header_bytes)
+        .ok_or_else(|| {
+            Error::format(
+                path,
+                format!(
+                    "header_bytes {} + dims {:?} × {}: the size overflows",
+                    layout.header_bytes, layout.dims, layout.voxel
+                ),
+            )
+        })?;
     if meta.len() != expected {
         return Err(Error::format(
             path,
