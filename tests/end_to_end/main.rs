@@ -2,6 +2,7 @@
 //!
 //! * `runs` — experiments, reports, resuming, locking, errors, `sweep render`;
 //! * `reliability` — inputs and events that used to hang, exhaust memory or mislead;
+//! * `faults` — runs killed at many moments, damaged cells, a full file system;
 //! * `claims` — the thesis's findings that the committed studies reproduce, on small grids;
 //! * `browser` — `report.html` in headless Chromium;
 //! * `slurm` — a real single-node Slurm cluster (CI or `VOLPHOT_SLURM_TEST=1`).
@@ -11,6 +12,7 @@
 
 mod browser;
 mod claims;
+mod faults;
 mod reliability;
 mod runs;
 mod slurm;
