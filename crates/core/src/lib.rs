@@ -92,10 +92,10 @@ pub use render::{
 };
 pub use scene::{
     BoxParams, Camera, CameraParams, Estimate, FilmParams, Incident, IntegratorParams, Intensity,
-    Light, LightKind, LightParams, Method, NormalizeKind, PhaseParams, PointLight, Quadrature,
-    Scene, SceneParams, ShadowEstimator, SpotLight, ThreePointParams, VolumeParams, build_medium,
-    key_at, line_col, load_params, load_volume, locate, locate_error, three_point, toml_error,
-    validate_params,
+    Light, LightKind, LightParams, MAX_MARCH_STEPS, Method, NormalizeKind, PhaseParams, PointLight,
+    Quadrature, Scene, SceneParams, ShadowEstimator, SpotLight, ThreePointParams, VolumeParams,
+    build_medium, key_at, line_col, load_params, load_volume, locate, locate_error, three_point,
+    toml_error, validate_params,
 };
 pub use util::{
     cache_dir, hostname, is_stale_temp, memory_budget_bytes, peak_memory_bytes, sha256_bytes,

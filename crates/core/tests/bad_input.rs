@@ -371,6 +371,22 @@ fn cases() -> Vec<Case> {
             }),
             &["nan.raw", "voxel 5", "x = 1, y = 0, z = 1", "NaN"],
         ),
+        s(
+            "scene: a step far too small for a huge box",
+            Box::new(|d| {
+                scene(
+                    d,
+                    &format!(
+                        "{}[sigma]\nt = 0.001\n[integrator]\nstepsize = 0.0005\n",
+                        SCENE.replace(
+                            "[three_point]",
+                            "box = { p0 = [0, 0, 0], p1 = [1e5, 1e5, 1e5] }\n[three_point]"
+                        )
+                    ),
+                )
+            }),
+            &["`integrator.stepsize` = 0.0005", "samples per ray"],
+        ),
         // --- σ mappings ---
         s(
             "sigma: t so large that free paths vanish (hung before)",

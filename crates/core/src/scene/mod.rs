@@ -59,6 +59,27 @@ use crate::error::Result;
 use crate::medium::Medium;
 use crate::volume::{SearchPath, VolumeSource};
 
+/// The most marching samples an eye or shadow ray may take through the volume.
+pub const MAX_MARCH_STEPS: f64 = 1e7;
+
+/// A step so small against the volume that one ray takes more than [`MAX_MARCH_STEPS`]
+/// samples would make a render run for days: refused, naming the key.
+fn check_march_length(params: &SceneParams, medium: &Medium) -> Result<()> {
+    let diagonal = medium.bounds().diagonal() as f64;
+    let step = params.integrator.stepsize as f64;
+    if diagonal / step > MAX_MARCH_STEPS {
+        return Err(crate::error::Error::parameter(
+            "integrator.stepsize",
+            step,
+            format!(
+                "a step of at least {:.3e}: the volume's diagonal ({diagonal}) over at most {MAX_MARCH_STEPS:e} samples per ray",
+                diagonal / MAX_MARCH_STEPS
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// A scene ready to render.
 #[derive(Debug, Clone)]
 pub struct Scene {
@@ -95,6 +116,7 @@ impl Scene {
         volume_source: VolumeSource,
     ) -> Result<Self> {
         validate_params(params)?;
+        check_march_length(params, &medium)?;
         let camera = Camera::create(&params.camera).map_err(|e| e.within("camera"))?;
         let mut lights = Vec::new();
         if let Some(tp) = &params.three_point {
