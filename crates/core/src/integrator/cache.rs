@@ -15,7 +15,7 @@ use crate::medium::Medium;
 use crate::photon::{GatherScratch, GatherVariant, PhotonMap};
 use crate::scene::Light;
 
-/// Optical depth up to which the transmittance cache marches its nodes (T ≈ 10⁻¹⁶): far
+/// Optical depth up to which the transmittance cache integrates its nodes (T ≈ 10⁻¹⁶): far
 /// beyond any shadow threshold, so interpolation between a lit and a dark node stays exact
 /// in the logarithm.
 pub const CACHE_TAU_MAX: f32 = 36.8;
@@ -99,7 +99,7 @@ impl TransmittanceCache {
         }
     }
 
-    pub(super) fn transmittance(&self, medium: &Medium, light: &Light, step: f32, p: Vec3) -> f32 {
+    pub(super) fn transmittance(&self, medium: &Medium, light: &Light, p: Vec3) -> f32 {
         let mut tau = 0.0;
         for (idx, w) in self.lattice.corners(p) {
             if w == 0.0 {
@@ -115,14 +115,9 @@ impl TransmittanceCache {
                 }
                 let ray = Ray::new(node, to_light);
                 match medium.clip(&ray) {
-                    Some((t0, t1)) => medium.optical_depth_marched_until(
-                        &ray,
-                        t0,
-                        t1.min(distance),
-                        step,
-                        0.5,
-                        CACHE_TAU_MAX,
-                    ),
+                    Some((t0, t1)) => {
+                        medium.optical_depth_exact(&ray, t0, t1.min(distance), CACHE_TAU_MAX)
+                    }
                     None => 0.0,
                 }
             });

@@ -1,7 +1,6 @@
 //! The ray-marching pass: eye rays through every pixel, a source term at every marching
 //! sample, layers accumulated front to back (thesis §6, eq. in §6 and §7.1.3).
 
-use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
@@ -10,14 +9,14 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::cache::TransmittanceCache;
-use super::gather::{MapGroup, MsVariant, group_by_map, source_factor};
+use super::gather::{MapGroup, MsVariant, group_by_map};
 use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
-use crate::math::{Domain, Ray, Rng};
+use crate::math::{Domain, Rng};
 use crate::medium::Medium;
 use crate::photon::{GatherScratch, PhotonMap};
-use crate::scene::{Camera, IntegratorParams, Light, Quadrature, Scene, ShadowEstimator};
+use crate::scene::{Camera, IntegratorParams, Light, Scene};
 
 /// Counters of one marching pass.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -48,39 +47,52 @@ pub struct MarchOutput {
     pub stats: MarchStats,
 }
 
-struct Marcher<'a> {
-    medium: &'a Medium,
-    lights: &'a [Light],
-    settings: &'a IntegratorParams,
-    variants: &'a [MsVariant],
-    groups: Vec<MapGroup<'a>>,
-    shadow_caches: Option<Vec<TransmittanceCache>>,
+pub(super) struct Marcher<'a> {
+    pub(super) medium: &'a Medium,
+    pub(super) lights: &'a [Light],
+    pub(super) settings: &'a IntegratorParams,
+    pub(super) variants: &'a [MsVariant],
+    pub(super) groups: Vec<MapGroup<'a>>,
+    pub(super) shadow_caches: Option<Vec<TransmittanceCache>>,
     /// `−ln(termination)`: optical depth at which a marched shadow ray counts as blocked.
-    shadow_tau_max: f32,
+    pub(super) shadow_tau_max: f32,
 }
 
 #[derive(Default)]
-struct RowCounters {
-    samples: u64,
-    shadow: u64,
-    gathers: u64,
+pub(super) struct RowCounters {
+    pub(super) samples: u64,
+    pub(super) shadow: u64,
+    pub(super) gathers: u64,
+}
+
+/// One marching sample of an eye ray where σt > 0.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct RaySample {
+    pub(super) x: Vec3,
+    pub(super) sigma_t: f32,
+    /// The segment's quadrature weight times the eye transmittance before it.
+    pub(super) weight: f32,
 }
 
 /// Radiance accumulated for one pixel, plus scratch space and counters of its row.
-struct Accumulator {
-    single: Vec3,
-    emission: Vec3,
+pub(super) struct Accumulator {
+    pub(super) single: Vec3,
+    pub(super) emission: Vec3,
     /// Sum and count of the depths where the eye transmittance fell below ½.
-    depth_sum: f32,
-    depth_hits: u32,
-    multiple: Vec<Vec3>,
-    estimates: Vec<Vec3>,
-    gather: GatherScratch,
-    counters: RowCounters,
+    pub(super) depth_sum: f32,
+    pub(super) depth_hits: u32,
+    pub(super) multiple: Vec<Vec3>,
+    pub(super) estimates: Vec<Vec3>,
+    /// One gather scratch per map group (its candidates belong to that group's map).
+    pub(super) gather: Vec<GatherScratch>,
+    pub(super) counters: RowCounters,
+    /// The current eye ray's samples, and per-sample values filled along it.
+    pub(super) samples: Vec<RaySample>,
+    pub(super) tau: Vec<f32>,
 }
 
 impl Accumulator {
-    fn new(variants: usize, max_group: usize) -> Self {
+    fn new(variants: usize, groups: usize, max_group: usize) -> Self {
         Accumulator {
             single: Vec3::ZERO,
             emission: Vec3::ZERO,
@@ -88,8 +100,10 @@ impl Accumulator {
             depth_hits: 0,
             multiple: vec![Vec3::ZERO; variants],
             estimates: vec![Vec3::ZERO; max_group],
-            gather: GatherScratch::default(),
+            gather: vec![GatherScratch::default(); groups],
             counters: RowCounters::default(),
+            samples: Vec::new(),
+            tau: Vec::new(),
         }
     }
 
@@ -138,135 +152,13 @@ impl Row {
 }
 
 impl Marcher<'_> {
-    fn shadow_transmittance(
-        &self,
-        light_index: usize,
-        p: Vec3,
-        to_light: Vec3,
-        distance: f32,
-        rng: &mut Rng,
-    ) -> f32 {
-        let light = &self.lights[light_index];
-        if let Some(caches) = &self.shadow_caches {
-            return caches[light_index].transmittance(
-                self.medium,
-                light,
-                self.settings.stepsize,
-                p,
-            );
-        }
-        let ray = Ray {
-            origin: p,
-            direction: to_light,
-        };
-        let Some((t0, t1)) = self.medium.clip(&ray) else {
-            return 1.0;
-        };
-        let t1 = t1.min(distance);
-        match self.settings.shadow {
-            ShadowEstimator::March => {
-                // A shadow ray stops, like the eye ray, once its transmittance drops below
-                // `termination`: the light it could still carry is below that fraction.
-                let tau = self.medium.optical_depth_marched_until(
-                    &ray,
-                    t0,
-                    t1,
-                    self.settings.stepsize,
-                    rng.uniform(),
-                    self.shadow_tau_max,
-                );
-                if tau > self.shadow_tau_max {
-                    0.0
-                } else {
-                    (-tau).exp()
-                }
-            }
-            ShadowEstimator::Ratio => self.medium.transmittance_ratio_tracking(&ray, t0, t1, rng),
-        }
-    }
-
-    /// Light scattered once at `x` towards `wo`: `Σ_lights L·T(x → light)·p` (to be
-    /// weighted by σs and the quadrature).
-    fn direct_light(&self, x: Vec3, wo: Vec3, rng: &mut Rng, acc: &mut Accumulator) -> Vec3 {
-        let mut direct = Vec3::ZERO;
-        for (li, light) in self.lights.iter().enumerate() {
-            let Some(inc) = light.incident(x) else {
-                continue;
-            };
-            acc.counters.shadow += 1;
-            let tr = self.shadow_transmittance(li, x, inc.to_light, inc.distance, rng);
-            if tr > 0.0 {
-                direct += inc.radiance * (tr * self.medium.phase().eval(-inc.to_light, wo));
-            }
-        }
-        direct
-    }
-
-    /// Adds every variant's multiple-scattering source term at `x`, weighted.
-    fn add_multiple(&self, x: Vec3, wo: Vec3, sigma_t: f32, weight: f32, acc: &mut Accumulator) {
-        for group in &self.groups {
-            let estimates = &mut acc.estimates[..group.gather.len()];
-            if group.estimate(self.medium, x, wo, &mut acc.gather, estimates) {
-                acc.counters.gathers += 1;
-            }
-            for (&vi, e) in group.variants.iter().zip(estimates.iter()) {
-                let factor = source_factor(self.variants[vi].estimate, self.medium, sigma_t);
-                acc.multiple[vi] += factor * *e * weight;
-            }
-        }
-    }
-
-    /// Marches one eye ray; adds its radiance into the accumulator.
-    fn trace(&self, ray: &Ray, rng: &mut Rng, acc: &mut Accumulator) {
-        let Some((t0, t1)) = self.medium.clip(ray) else {
-            return;
-        };
-        let s = self.settings;
-        let u = rng.uniform();
-        let wo = -ray.direction;
-        let mut eye_t = 1.0f32;
-        self.medium.march(ray, t0, t1, s.stepsize, u, |t, w| {
-            let x = ray.at(t);
-            let sigma_t = self.medium.sigma_t_in_box(x);
-            if sigma_t <= 0.0 {
-                return ControlFlow::Continue(());
-            }
-            acc.counters.samples += 1;
-            let segment_t = (-sigma_t * w).exp();
-            let weight = match s.quadrature {
-                Quadrature::Exact => (1.0 - segment_t) / sigma_t,
-                Quadrature::Riemann => w,
-            } * eye_t;
-            if s.single {
-                let direct = self.direct_light(x, wo, rng, acc);
-                acc.single += self.medium.albedo() * sigma_t * direct * weight;
-            }
-            if s.multiple {
-                self.add_multiple(x, wo, sigma_t, weight, acc);
-            }
-            if s.emission {
-                acc.emission += self.medium.emission(x) * weight;
-            }
-            if eye_t >= 0.5 && eye_t * segment_t < 0.5 {
-                acc.depth_sum += t;
-                acc.depth_hits += 1;
-            }
-            eye_t *= segment_t;
-            if eye_t < s.termination {
-                ControlFlow::Break(())
-            } else {
-                ControlFlow::Continue(())
-            }
-        });
-    }
-
     /// Renders image row `y`: `spp` jittered eye rays per pixel, each from its own random
     /// stream `(seed, pixel, sample)`.
     fn render_row(&self, camera: &Camera, y: usize, max_group: usize) -> Row {
         let width = camera.width() as usize;
         let spp = self.settings.spp;
         let mut row = Row::new(width, self.variants.len());
-        let mut acc = Accumulator::new(self.variants.len(), max_group);
+        let mut acc = Accumulator::new(self.variants.len(), self.groups.len(), max_group);
         for x in 0..width {
             let pixel = (y * width + x) as u64;
             acc.start_pixel();

@@ -25,7 +25,9 @@
 //! multiple-scattering cache (`ms_cache`, view-independent for isotropic phase). Both
 //! caches are off by default; their error against the uncached path is measured in tests.
 
+mod adaptive;
 mod cache;
+mod eye_ray;
 mod gather;
 mod march;
 mod reference;

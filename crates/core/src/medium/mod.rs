@@ -6,11 +6,13 @@
 //! * [`majorant`] bounds σt brick by brick and walks a ray's majorant segments;
 //! * [`free_path`] holds every tracker on one collision loop (delta, ratio, march, thesis);
 //! * [`march`] is the thesis's ray marching and marched optical depth;
+//! * [`optical_depth`] integrates σt exactly along a ray, cell by cell;
 //! * [`phase`] is the phase function.
 
 mod free_path;
 mod majorant;
 mod march;
+mod optical_depth;
 mod phase;
 mod sigma;
 mod transfer;

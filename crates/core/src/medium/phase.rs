@@ -47,6 +47,11 @@ impl Phase {
         self.eval_cos(wi.dot(wo))
     }
 
+    /// The largest phase value over all angles (forward for `g > 0`, backward for `g < 0`).
+    pub fn max_value(&self) -> f32 {
+        self.eval_cos(1.0).max(self.eval_cos(-1.0))
+    }
+
     /// Phase value for the cosine between the propagation directions.
     #[inline]
     pub fn eval_cos(&self, cos_theta: f32) -> f32 {

@@ -24,13 +24,12 @@
 //! assert!(out[0].x > 0.0);
 //! ```
 
-use std::num::NonZeroUsize;
 use std::time::Instant;
 
 use glam::Vec3;
 use kiddo::ImmutableKdTree;
-use kiddo::dist::SquaredEuclidean;
 
+use super::neighbours::{Neighbours, key_distance2};
 use super::{Photon, PhotonStats};
 use crate::medium::Phase;
 
@@ -59,9 +58,7 @@ pub struct GatherVariant {
 /// allocate.
 #[derive(Debug, Default, Clone)]
 pub struct GatherScratch {
-    hits: Vec<(f32, u32)>,
-    flux: Vec<Vec3>,
-    fluence: Vec<Vec3>,
+    neighbours: Neighbours,
     radii: Vec<f32>,
 }
 
@@ -75,8 +72,15 @@ impl GatherScratch {
 
 /// A kd-tree over stored photons.
 pub struct PhotonMap {
+    /// Unique per map built in this process: gather candidates remember which map they
+    /// came from.
+    id: u64,
     tree: ImmutableKdTree<f32, 3>,
     photons: Vec<Photon>,
+    /// The largest power component of a photon, and of a photon's power over its σt: with
+    /// the phase function's maximum they bound every term of a gather (see [`FixedSum`]).
+    largest_flux: f32,
+    largest_fluence: f32,
     stats: PhotonStats,
     build_seconds: f64,
 }
@@ -97,9 +101,22 @@ impl PhotonMap {
         let positions: Vec<[f32; 3]> = photons.iter().map(|p| p.position.to_array()).collect();
         let tree = ImmutableKdTree::new_from_slice(&positions)
             .expect("photon count fits u32 (capped by volume_photons ≤ 1e8)");
+        let largest = |f: &dyn Fn(&Photon) -> f32| photons.iter().map(f).fold(0.0f32, f32::max);
+        let largest_flux = largest(&|p| p.power.max_element());
+        let largest_fluence = largest(&|p| {
+            if p.sigma_t > 0.0 {
+                p.power.max_element() / p.sigma_t
+            } else {
+                0.0
+            }
+        });
+        static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
         PhotonMap {
+            id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             tree,
             photons,
+            largest_flux,
+            largest_fluence,
             stats,
             build_seconds: start.elapsed().as_secs_f64(),
         }
@@ -130,71 +147,53 @@ impl PhotonMap {
         self.build_seconds
     }
 
-    /// The up to `k` nearest photons within `maxdist` of `p`, sorted by distance, as
-    /// `(squared distance, photon index)`.
+    /// The up to `k` nearest photons within `maxdist` of `p`, sorted by distance (ties by
+    /// photon index), as `(squared distance, photon index)`.
     pub fn gather(&self, p: Vec3, k: usize, maxdist: f32) -> Vec<(f32, u32)> {
-        let mut hits = Vec::new();
-        self.gather_into(p, k, maxdist, &mut hits);
-        hits
+        let mut neighbours = Neighbours::default();
+        neighbours.gather(self, p, k, maxdist, true);
+        neighbours
+            .selected()
+            .iter()
+            .map(|&(key, _)| (key_distance2(key), key as u32))
+            .collect()
     }
 
-    /// Gathers sorted by distance (kiddo keeps results sorted cheaply for k ≤ 192).
-    fn gather_into(&self, p: Vec3, k: usize, maxdist: f32, hits: &mut Vec<(f32, u32)>) {
-        hits.clear();
-        let Some(k) = NonZeroUsize::new(k) else {
-            return;
-        };
-        if self.photons.is_empty() {
-            return;
-        }
-        hits.extend(
-            self.tree
-                .query(&p.to_array())
-                .nearest_n::<SquaredEuclidean<f32>>(k)
-                .within(maxdist * maxdist)
-                .execute()
-                .into_iter()
-                .map(|h| (h.distance, h.item)),
-        );
+    pub(super) fn id(&self) -> u64 {
+        self.id
     }
 
-    /// One estimate without prefix sums: the sum over all gathered photons, with the
-    /// radius rule of [`PhotonMap::estimates`]. Returns the estimate and its radius.
-    fn estimate_unsorted(
-        &self,
-        p: Vec3,
-        wo: Vec3,
-        phase: Phase,
-        v: &GatherVariant,
-        hits: &mut Vec<(f32, u32)>,
-    ) -> (Vec3, f32) {
-        self.gather_into(p, v.nused as usize, v.maxdist, hits);
-        let n = hits.len();
-        // The same arithmetic, in the same order, as the prefix sums of `estimates`, so a
-        // variant's value does not depend on which other variants share the query.
-        let mut sum = Vec3::ZERO;
-        for &(_, i) in hits.iter() {
-            let photon = &self.photons[i as usize];
-            let contribution = photon.power * phase.eval(photon.direction, wo);
-            match v.gathered {
-                Gathered::Flux => sum += contribution,
-                Gathered::Fluence if photon.sigma_t > 0.0 => sum += contribution / photon.sigma_t,
-                Gathered::Fluence => {}
-            }
-        }
-        let r = if n == v.nused as usize {
-            hits[n - 1].0.sqrt()
-        } else {
-            v.maxdist
+    pub(super) fn tree(&self) -> &ImmutableKdTree<f32, 3> {
+        &self.tree
+    }
+
+    /// A bound on any gather's sum of terms: the largest term times the photon count.
+    pub(super) fn term_bound(&self, gathered: Gathered, phase: Phase) -> f32 {
+        let largest = match gathered {
+            Gathered::Flux => self.largest_flux,
+            Gathered::Fluence => self.largest_fluence,
         };
-        if n == 0 || r <= 0.0 {
-            return (Vec3::ZERO, 0.0);
+        largest * phase.max_value() * self.photons.len() as f32
+    }
+
+    /// Photon `i`'s term of a gather: `p·ΔΦ` (flux), or `p·ΔΦ/σt` (fluence; 0 where it was
+    /// stored with σt = 0).
+    #[inline]
+    pub(super) fn term(photon: &Photon, gathered: Gathered, phase: Phase, wo: Vec3) -> Vec3 {
+        let contribution = photon.power * phase.eval(photon.direction, wo);
+        match gathered {
+            Gathered::Flux => contribution,
+            Gathered::Fluence if photon.sigma_t > 0.0 => contribution / photon.sigma_t,
+            Gathered::Fluence => Vec3::ZERO,
         }
-        (sum / (4.0 / 3.0 * std::f32::consts::PI * r * r * r), r)
     }
 
     /// Radiance estimates (eq. 11) at `p` towards propagation direction `wo` for every
-    /// variant, from a single k-NN query with the largest `nused` and `maxdist`.
+    /// variant, from a single gather with the largest `nused` and `maxdist`.
+    ///
+    /// Each variant's photons are a prefix of the shared gather in its canonical order, and
+    /// its sum runs over that prefix in that order, so a variant's value is bit-identical
+    /// whether it is estimated alone or with others.
     pub fn estimates(
         &self,
         p: Vec3,
@@ -205,55 +204,25 @@ impl PhotonMap {
         out: &mut [Vec3],
     ) {
         debug_assert_eq!(variants.len(), out.len());
-        scratch.radii.clear();
-        if let [v] = variants {
-            let (value, r) = self.estimate_unsorted(p, wo, phase, v, &mut scratch.hits);
-            out[0] = value;
-            scratch.radii.push(r);
-            return;
-        }
         let k = variants.iter().map(|v| v.nused).max().unwrap_or(0) as usize;
         let r_max = variants.iter().map(|v| v.maxdist).fold(0.0f32, f32::max);
-        let GatherScratch {
-            hits,
-            flux,
-            fluence,
-            radii,
-        } = scratch;
-        self.gather_into(p, k, r_max, hits);
-        let need_flux = variants.iter().any(|v| v.gathered == Gathered::Flux);
-        let need_fluence = variants.iter().any(|v| v.gathered == Gathered::Fluence);
-        // Prefix sums of p·ΔΦ (and of p·ΔΦ/σt) in distance order.
-        flux.clear();
-        fluence.clear();
-        let (mut acc_flux, mut acc_fluence) = (Vec3::ZERO, Vec3::ZERO);
-        if need_flux {
-            flux.push(Vec3::ZERO);
-        }
-        if need_fluence {
-            fluence.push(Vec3::ZERO);
-        }
-        for &(_, i) in hits.iter() {
-            let photon = &self.photons[i as usize];
-            let contribution = photon.power * phase.eval(photon.direction, wo);
-            if need_flux {
-                acc_flux += contribution;
-                flux.push(acc_flux);
-            }
-            if need_fluence {
-                if photon.sigma_t > 0.0 {
-                    acc_fluence += contribution / photon.sigma_t;
-                }
-                fluence.push(acc_fluence);
-            }
-        }
+        // One variant sums all its photons; several need them in order to take prefixes.
+        let neighbours = &mut scratch.neighbours;
+        neighbours.gather(self, p, k, r_max, variants.len() > 1);
+        scratch.radii.clear();
         for (v, o) in variants.iter().zip(out.iter_mut()) {
+            let selected = neighbours.selected();
             let r2_max = v.maxdist * v.maxdist;
             // Photons of this variant: the prefix within its radius, at most nused.
-            let within = hits.partition_point(|&(d2, _)| d2 <= r2_max);
-            let n = within.min(v.nused as usize);
+            let n = if variants.len() == 1 {
+                selected.len()
+            } else {
+                let within = selected.partition_point(|s| key_distance2(s.0) <= r2_max);
+                within.min(v.nused as usize)
+            };
             let r = if n == v.nused as usize {
-                hits[n - 1].0.sqrt()
+                let farthest = selected[..n].iter().map(|s| s.0).max().unwrap_or(0);
+                key_distance2(farthest).sqrt()
             } else {
                 v.maxdist
             };
@@ -261,16 +230,12 @@ impl PhotonMap {
             // rather than undefined.
             if n == 0 || r <= 0.0 {
                 *o = Vec3::ZERO;
-                radii.push(0.0);
+                scratch.radii.push(0.0);
                 continue;
             }
-            radii.push(r);
-            let volume = 4.0 / 3.0 * std::f32::consts::PI * r * r * r;
-            let sum = match v.gathered {
-                Gathered::Flux => flux[n],
-                Gathered::Fluence => fluence[n],
-            };
-            *o = sum / volume;
+            let sum = neighbours.sum(self, n, v.gathered, phase, wo);
+            scratch.radii.push(r);
+            *o = sum / (4.0 / 3.0 * std::f32::consts::PI * r * r * r);
         }
     }
 

@@ -2,6 +2,7 @@
 //! kd-tree photon map with its radiance estimate ([`PhotonMap`]).
 
 mod map;
+mod neighbours;
 mod trace;
 
 pub use map::{GatherScratch, GatherVariant, Gathered, PhotonMap};

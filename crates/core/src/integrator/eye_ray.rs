@@ -1,0 +1,233 @@
+//! One eye ray of the marching pass: its samples first, then each light's transmittance
+//! and each photon map's estimates at those samples.
+//!
+//! The samples of a ray are collected before any source term is evaluated, so that the
+//! optical depth to each light can be filled along the ray ([`super::adaptive`]): with the
+//! exact estimator and `shadow_stride = s > 0` it is computed at every `s`-th sample and
+//! at interval midpoints, and interpolated only where the midpoint shows the straight line
+//! holds to within [`TAU_TOLERANCE`]; everywhere else (shadow edges, cone edges, blocked
+//! stretches) every sample gets its exact value. Photon-map estimates are gathered at
+//! every sample: interpolating them was measured to miss the 2 % per-pixel bound.
+
+use std::ops::ControlFlow;
+
+use glam::Vec3;
+
+use super::adaptive::{Track, fill_adaptive, fraction};
+use super::gather::source_factor;
+use super::march::{Accumulator, Marcher, RaySample};
+use crate::math::{Ray, Rng};
+use crate::scene::{Light, Quadrature, ShadowEstimator};
+
+/// Below this optical-depth difference at the checked midpoint an interpolated shadow is
+/// taken as exact (1 % in transmittance there).
+const TAU_TOLERANCE: f32 = 0.05;
+
+impl Marcher<'_> {
+    /// Marches one eye ray; adds its radiance into the accumulator.
+    pub(super) fn trace(&self, ray: &Ray, rng: &mut Rng, acc: &mut Accumulator) {
+        self.collect_samples(ray, rng, acc);
+        if acc.samples.is_empty() {
+            return;
+        }
+        let wo = -ray.direction;
+        if self.settings.single {
+            self.add_single(wo, rng, acc);
+        }
+        if self.settings.multiple {
+            self.add_multiple(wo, acc);
+        }
+    }
+
+    /// Marches the eye ray, keeping the samples with σt > 0 (and adding emission and depth,
+    /// which are cheap), until the eye transmittance falls below `termination`.
+    fn collect_samples(&self, ray: &Ray, rng: &mut Rng, acc: &mut Accumulator) {
+        acc.samples.clear();
+        let Some((t0, t1)) = self.medium.clip(ray) else {
+            return;
+        };
+        let s = self.settings;
+        let u = rng.uniform();
+        let mut eye_t = 1.0f32;
+        self.medium.march(ray, t0, t1, s.stepsize, u, |t, w| {
+            let x = ray.at(t);
+            let sigma_t = self.medium.sigma_t_in_box(x);
+            if sigma_t <= 0.0 {
+                return ControlFlow::Continue(());
+            }
+            let segment_t = (-sigma_t * w).exp();
+            let weight = match s.quadrature {
+                Quadrature::Exact => (1.0 - segment_t) / sigma_t,
+                Quadrature::Riemann => w,
+            } * eye_t;
+            acc.samples.push(RaySample { x, sigma_t, weight });
+            if s.emission {
+                acc.emission += self.medium.emission(x) * weight;
+            }
+            if eye_t >= 0.5 && eye_t * segment_t < 0.5 {
+                acc.depth_sum += t;
+                acc.depth_hits += 1;
+            }
+            eye_t *= segment_t;
+            if eye_t < s.termination {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        });
+        acc.counters.samples += acc.samples.len() as u64;
+    }
+
+    /// Single scattering of the collected samples, light by light:
+    /// `σs · p · L · T(x → light)` at each sample, weighted.
+    fn add_single(&self, wo: Vec3, rng: &mut Rng, acc: &mut Accumulator) {
+        let n = acc.samples.len();
+        let adaptive = self.settings.shadow == ShadowEstimator::Exact
+            && self.shadow_caches.is_none()
+            && self.settings.shadow_stride > 0;
+        for (li, light) in self.lights.iter().enumerate() {
+            if adaptive {
+                acc.tau.clear();
+                acc.tau.resize(n, 0.0);
+                let mut track = ShadowTrack {
+                    marcher: self,
+                    light,
+                    samples: &acc.samples,
+                    tau: &mut acc.tau,
+                };
+                let stride = self.settings.shadow_stride as usize;
+                acc.counters.shadow += fill_adaptive(n, stride, &mut track) as u64;
+            }
+            for i in 0..n {
+                let sample = acc.samples[i];
+                let Some(inc) = light.incident(sample.x) else {
+                    continue;
+                };
+                let tr = if adaptive {
+                    transmittance_of(acc.tau[i], self.shadow_tau_max)
+                } else {
+                    acc.counters.shadow += 1;
+                    self.shadow_transmittance(li, sample.x, inc.to_light, inc.distance, rng)
+                };
+                if tr > 0.0 {
+                    let direct = inc.radiance * (tr * self.medium.phase().eval(-inc.to_light, wo));
+                    acc.single += self.medium.albedo() * sample.sigma_t * direct * sample.weight;
+                }
+            }
+        }
+    }
+
+    /// Multiple scattering of the collected samples: every variant's source term at every
+    /// sample, weighted (variants on one map share one gather per sample).
+    fn add_multiple(&self, wo: Vec3, acc: &mut Accumulator) {
+        for (group, scratch) in self.groups.iter().zip(&mut acc.gather) {
+            for sample in &acc.samples {
+                let estimates = &mut acc.estimates[..group.gather.len()];
+                if group.estimate(self.medium, sample.x, wo, scratch, estimates) {
+                    acc.counters.gathers += 1;
+                }
+                for (&vi, e) in group.variants.iter().zip(estimates.iter()) {
+                    let factor =
+                        source_factor(self.variants[vi].estimate, self.medium, sample.sigma_t);
+                    acc.multiple[vi] += factor * *e * sample.weight;
+                }
+            }
+        }
+    }
+
+    /// Transmittance from `p` to light `light_index` by the scene's estimator (or its
+    /// cache), at one sample.
+    pub(super) fn shadow_transmittance(
+        &self,
+        light_index: usize,
+        p: Vec3,
+        to_light: Vec3,
+        distance: f32,
+        rng: &mut Rng,
+    ) -> f32 {
+        let light = &self.lights[light_index];
+        if let Some(caches) = &self.shadow_caches {
+            return caches[light_index].transmittance(self.medium, light, p);
+        }
+        let ray = Ray {
+            origin: p,
+            direction: to_light,
+        };
+        let Some((t0, t1)) = self.medium.clip(&ray) else {
+            return 1.0;
+        };
+        let t1 = t1.min(distance);
+        let tau_max = self.shadow_tau_max;
+        match self.settings.shadow {
+            ShadowEstimator::Exact => transmittance_of(
+                self.medium.optical_depth_exact(&ray, t0, t1, tau_max),
+                tau_max,
+            ),
+            // A marched shadow ray stops, like the eye ray, once its transmittance drops
+            // below `termination`: the light it could still carry is below that fraction.
+            ShadowEstimator::March => {
+                let step = self.settings.stepsize;
+                let tau = self.medium.optical_depth_marched_until(
+                    &ray,
+                    t0,
+                    t1,
+                    step,
+                    rng.uniform(),
+                    tau_max,
+                );
+                transmittance_of(tau, tau_max)
+            }
+            ShadowEstimator::Ratio => self.medium.transmittance_ratio_tracking(&ray, t0, t1, rng),
+        }
+    }
+}
+
+/// Transmittance from an optical depth; beyond `tau_max` the light counts as blocked.
+#[inline]
+fn transmittance_of(tau: f32, tau_max: f32) -> f32 {
+    if tau > tau_max { 0.0 } else { (-tau).exp() }
+}
+
+/// The optical depth from each sample to one light, capped just above the blocking depth
+/// (samples outside a spot light's cone count as blocked, so the cone's edge is refined).
+struct ShadowTrack<'a> {
+    marcher: &'a Marcher<'a>,
+    light: &'a Light,
+    samples: &'a [RaySample],
+    tau: &'a mut [f32],
+}
+
+impl Track for ShadowTrack<'_> {
+    fn evaluate(&mut self, i: usize) {
+        let medium = self.marcher.medium;
+        let tau_max = self.marcher.shadow_tau_max;
+        let blocked = tau_max.min(1e6) + 1.0;
+        let x = self.samples[i].x;
+        self.tau[i] = match self.light.incident(x) {
+            None => blocked,
+            Some(inc) => {
+                let ray = Ray {
+                    origin: x,
+                    direction: inc.to_light,
+                };
+                match medium.clip(&ray) {
+                    None => 0.0,
+                    Some((t0, t1)) => medium
+                        .optical_depth_exact(&ray, t0, t1.min(inc.distance), tau_max)
+                        .min(blocked),
+                }
+            }
+        };
+    }
+
+    fn interpolate(&mut self, a: usize, b: usize, i: usize) {
+        let f = fraction(a, b, i);
+        self.tau[i] = self.tau[a] + (self.tau[b] - self.tau[a]) * f;
+    }
+
+    fn agrees(&self, a: usize, b: usize, m: usize) -> bool {
+        let f = fraction(a, b, m);
+        let predicted = self.tau[a] + (self.tau[b] - self.tau[a]) * f;
+        (predicted - self.tau[m]).abs() <= TAU_TOLERANCE
+    }
+}
