@@ -334,6 +334,58 @@ fn render_writes_layers_png_pfm_and_sidecar() {
     assert!(json["sigma"]["mean_free_path_percent"].as_f64().unwrap() > 0.0);
 }
 
+/// A cache is an approximation: a cell rendered with one records the error the cache was
+/// measured to have, and the report lists it; cells without a cache record nothing.
+#[test]
+fn cached_cells_record_and_report_their_measured_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let exp = write_experiment(
+        tmp.path(),
+        "caches",
+        "phantom-engine.toml",
+        r#"
+[set]
+"volume.phantom.resolution" = [32, 32, 32]
+"camera.resolution" = [32, 32]
+"integrator.volume_photons" = 3000
+"integrator.stepsize" = 0.004
+[axes]
+"integrator.shadow_cache" = [0, 16]
+"integrator.ms_cache" = [0, 16]
+"#,
+    );
+    let out = tmp.path().join("out");
+    run_ok(sweep().arg("run").arg(&exp).arg("--output").arg(&out));
+    let mut with_error = 0;
+    for entry in std::fs::read_dir(out.join("cells")).unwrap().flatten() {
+        let Ok(text) = std::fs::read_to_string(entry.path().join("cell.json")) else {
+            continue;
+        };
+        let record: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let integrator = &record["scene"]["integrator"];
+        let shadow = integrator["shadow_cache"].as_u64().unwrap() > 0;
+        let ms = integrator["ms_cache"].as_u64().unwrap() > 0;
+        let error = &record["cache_error"];
+        assert_eq!(error.is_null(), !shadow && !ms, "{record}");
+        if !error.is_null() {
+            with_error += 1;
+            assert!(error["probes"].as_u64().unwrap() > 100, "{error}");
+            assert_eq!(error["shadow"].is_null(), !shadow, "{error}");
+            assert_eq!(error["multiple"].is_null(), !ms, "{error}");
+            for part in ["shadow", "multiple"] {
+                if let Some(p99) = error[part]["p99"].as_f64() {
+                    // A 16-node lattice on a 32³ engine is coarse: the error is real.
+                    assert!(p99 > 0.0 && p99 <= error[part]["max"].as_f64().unwrap());
+                }
+            }
+        }
+    }
+    assert_eq!(with_error, 3);
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("## Caches"), "{report}");
+    assert_eq!(report.matches("| shadow_cache = 16").count(), 2, "{report}");
+}
+
 #[test]
 fn real_dataset_grid_records_checksums() {
     let Some(data) = data_dir() else {

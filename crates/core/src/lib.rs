@@ -70,10 +70,10 @@ pub mod test_util;
 
 pub use control::Control;
 pub use error::{Error, Result, check_non_negative, check_positive, check_range};
-pub use film::{Film, Layer, mean_rgb, to_srgb8, write_pfm, write_png, write_png_rgb8};
+pub use film::{Film, Layer, mean_rgb, read_pfm, to_srgb8, write_pfm, write_png, write_png_rgb8};
 pub use integrator::{
-    CACHE_TAU_MAX, MAX_VERTICES, MarchOutput, MarchStats, MsVariant, ReferenceAccumulator,
-    render_march, render_reference,
+    CACHE_TAU_MAX, CacheError, ErrorBound, MAX_VERTICES, MarchOutput, MarchStats, MsVariant,
+    ReferenceAccumulator, render_march, render_reference,
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
 pub use medium::{
@@ -92,14 +92,15 @@ pub use render::{
 };
 pub use scene::{
     BoxParams, Camera, CameraParams, Estimate, FilmParams, Incident, IntegratorParams, Intensity,
-    Light, LightKind, LightParams, MAX_MARCH_STEPS, Method, NormalizeKind, PhaseParams, PointLight,
-    Quadrature, Scene, SceneParams, ShadowEstimator, SpotLight, ThreePointParams, VolumeParams,
-    build_medium, key_at, line_col, load_params, load_volume, locate, locate_error, three_point,
-    toml_error, validate_params,
+    Light, LightKind, LightParams, MAX_MARCH_STEPS, Method, MitsubaExport, NormalizeKind,
+    PhaseParams, PointLight, Quadrature, Scene, SceneParams, ShadowEstimator, SpotLight,
+    ThreePointParams, VolumeParams, build_medium, export_mitsuba, key_at, line_col, load_params,
+    load_volume, locate, locate_error, three_point, toml_error, validate_params,
 };
 pub use util::{
-    cache_dir, hostname, is_stale_temp, memory_budget_bytes, peak_memory_bytes, sha256_bytes,
-    sha256_cached, sha256_content, sha256_file, temp_sibling, write_atomic, write_atomic_with,
+    cache_dir, hostname, is_stale_temp, memory_budget_bytes, peak_memory_bytes,
+    process_cpu_seconds, sha256_bytes, sha256_cached, sha256_content, sha256_file, temp_sibling,
+    write_atomic, write_atomic_with,
 };
 pub use volume::{
     ByteOrder, DATASETS, DatasetInfo, DatasetOverrides, DatasetStatus, FileRequest, Grid,

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 use crate::control::Control;
 use crate::error::Result;
 use crate::film::{Film, Layer};
-use crate::integrator::{MarchStats, MsVariant, render_march, render_reference};
+use crate::integrator::{CacheError, MarchStats, MsVariant, render_march, render_reference};
 use crate::medium::{FreePath, SigmaReport};
 use crate::photon::{PhotonMap, PhotonStats, TraceSettings, trace};
 use crate::scene::{
@@ -80,6 +80,9 @@ pub struct RenderRecord {
     pub photons: Option<PhotonStats>,
     /// Marching counters (photon method).
     pub march: Option<MarchStats>,
+    /// What the caches were measured to err by, when the render used one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cache_error: Option<CacheError>,
     /// Reference samples per pixel (reference method).
     pub reference_spp: Option<u32>,
     /// Seconds per phase.
@@ -121,6 +124,7 @@ pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
     let start = Instant::now();
     let s = scene.integrator();
     let mut timings = Timings::default();
+    let mut cache_error = None;
     let (film, photons, march, reference_spp) = match s.method {
         Method::Photon => {
             let map = if s.multiple {
@@ -135,6 +139,7 @@ pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
             let out = render_march(scene, &maps, &[], control)?;
             timings.render = out.stats.seconds;
             let film = out.films.into_iter().next().expect("one variant, one film");
+            cache_error = out.cache_errors.into_iter().next().flatten();
             (film, map.map(|m| m.stats().clone()), Some(out.stats), None)
         }
         Method::Reference => {
@@ -144,10 +149,9 @@ pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
         }
     };
     timings.total = start.elapsed().as_secs_f64();
-    Ok(RenderOutput {
-        film,
-        record: record(scene, photons, march, reference_spp, timings),
-    })
+    let mut record = record(scene, photons, march, reference_spp, timings);
+    record.cache_error = cache_error;
+    Ok(RenderOutput { film, record })
 }
 
 /// Builds the provenance record for a render of `scene`.
@@ -163,6 +167,7 @@ pub fn record(
         provenance: Provenance::of(scene),
         photons,
         march,
+        cache_error: None,
         reference_spp,
         timings,
         peak_memory_bytes: peak_memory_bytes(),
@@ -221,6 +226,8 @@ pub struct SharedFilm {
     pub tree_seconds: f64,
     /// Variants that used the same photon map (0 without one).
     pub map_shared_by: usize,
+    /// What the caches were measured to err by, when the render used one.
+    pub cache_error: Option<CacheError>,
 }
 
 /// What [`render_shared`] produced.
@@ -252,6 +259,7 @@ pub fn render_shared(
             photon_seconds: 0.0,
             tree_seconds: 0.0,
             map_shared_by: 0,
+            cache_error: None,
         };
         return Ok(SharedRender {
             films: vec![film; variants.len()],
@@ -303,6 +311,7 @@ pub fn render_shared(
                         .iter()
                         .filter(|v| v.map == ms_variants[*i].map)
                         .count(),
+                    cache_error: out.cache_errors[*i].clone(),
                 }
             }
             None => {
@@ -317,6 +326,7 @@ pub fn render_shared(
                     photon_seconds: 0.0,
                     tree_seconds: 0.0,
                     map_shared_by: 0,
+                    cache_error: out.cache_errors[0].clone(),
                 }
             }
         })

@@ -89,6 +89,34 @@ pub(crate) enum Command {
         after_help = "Example:\n  sweep bench --threads 2\n  sweep bench --quick          (a smaller frame on a phantom)"
     )]
     Bench(BenchArgs),
+    /// Write a scene for another renderer (Mitsuba 3: XML and a .vol grid).
+    #[command(
+        after_help = "Example:\n  sweep export experiments/scenes/phantom-head.toml --format mitsuba -o peer/\n  mitsuba -D max_depth=2 peer/phantom-head.xml      (single scattering)"
+    )]
+    Export(ExportArgs),
+}
+
+/// `sweep export`.
+#[derive(Debug, Args)]
+pub(crate) struct ExportArgs {
+    /// Scene file (TOML).
+    pub(crate) scene: PathBuf,
+    /// Target renderer.
+    #[arg(long, value_enum)]
+    pub(crate) format: ExportFormat,
+    /// Output folder.
+    #[arg(short, long, default_value = "export")]
+    pub(crate) output: PathBuf,
+    /// Image size `WIDTHxHEIGHT` (overrides the scene's camera resolution).
+    #[arg(long, value_parser = parse_resolution)]
+    pub(crate) resolution: Option<[u32; 2]>,
+}
+
+/// A renderer `sweep export` writes for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum ExportFormat {
+    /// Mitsuba 3 (`volpath`; XML scene + `.vol` grid of the transferred density).
+    Mitsuba,
 }
 
 /// `sweep datasets`.
@@ -296,18 +324,39 @@ pub(crate) struct BenchArgs {
     /// A small frame on the foot phantom instead of the real foot at 512².
     #[arg(long)]
     pub(crate) quick: bool,
-    /// Worker threads (default: all cores).
+    /// Worker threads of the multi-threaded runs (default: all cores).
     #[arg(long)]
     pub(crate) threads: Option<usize>,
     /// Scene to benchmark instead of the headline frame.
     #[arg(long)]
     pub(crate) scene: Option<PathBuf>,
-    /// Skip the uncached run (which can take minutes).
-    #[arg(long)]
-    pub(crate) cached_only: bool,
+    /// Run only these configurations (comma-separated; default: all).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub(crate) only: Vec<BenchConfig>,
+    /// Passes of the path tracer in the single-scattering efficiency comparison.
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=100_000))]
+    pub(crate) reference_passes: u32,
     /// Write the measurements as JSON here.
     #[arg(long)]
     pub(crate) json: Option<PathBuf>,
+}
+
+/// A configuration of `sweep bench`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum BenchConfig {
+    /// The thesis's integrator as v0.1 ran it: shadow rays marched with the step, no caches
+    /// (what the others are compared with).
+    Marched,
+    /// The default: exact optical depth, filled along each eye ray.
+    Exact,
+    /// Exact optical depth at every sample (no interpolation at all).
+    EverySample,
+    /// The default on one thread (the thread scaling).
+    OneThread,
+    /// The transmittance and scattering caches (128 nodes): fast, not exact.
+    Cached,
+    /// Single scattering only: the marcher against the path tracer, RMSE² × CPU-s.
+    Efficiency,
 }
 
 /// Parses `--cell-timeout` (seconds, > 0).

@@ -191,9 +191,109 @@ pub fn write_pfm(path: &Path, width: usize, height: usize, pixels: &[Vec3]) -> R
     })
 }
 
+/// Reads a colour PFM (`PF`, either byte order, bottom row first) as top-row-first RGB:
+/// `(width, height, pixels)`.
+pub fn read_pfm(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bad = |what: &str| Error::format(path, format!("PFM: {what}"));
+    // Three whitespace-separated header lines: "PF", "W H", scale (negative: little endian).
+    let mut fields = Vec::new();
+    let mut at = 0;
+    while fields.len() < 4 {
+        while at < bytes.len() && bytes[at].is_ascii_whitespace() {
+            at += 1;
+        }
+        let start = at;
+        while at < bytes.len() && !bytes[at].is_ascii_whitespace() {
+            at += 1;
+        }
+        if start == at || at - start > 32 {
+            return Err(bad("expected the header `PF`, width, height and scale"));
+        }
+        fields.push(String::from_utf8_lossy(&bytes[start..at]).into_owned());
+    }
+    at += 1; // the single whitespace byte that ends the header
+    if fields[0] != "PF" {
+        return Err(bad(&format!(
+            "`{}` is not a colour PFM (expected `PF`)",
+            fields[0]
+        )));
+    }
+    let size = |s: &str| {
+        s.parse::<usize>()
+            .ok()
+            .filter(|&n| (1..=1 << 16).contains(&n))
+    };
+    let (Some(width), Some(height)) = (size(&fields[1]), size(&fields[2])) else {
+        return Err(bad(&format!(
+            "size `{} {}`: expected two numbers in 1..=65536",
+            fields[1], fields[2]
+        )));
+    };
+    let scale: f32 = fields[3]
+        .parse()
+        .ok()
+        .filter(|s: &f32| s.is_finite() && *s != 0.0)
+        .ok_or_else(|| {
+            bad(&format!(
+                "scale `{}`: expected a non-zero number",
+                fields[3]
+            ))
+        })?;
+    let expected = width * height * 12;
+    let data = bytes
+        .get(at..)
+        .filter(|d| d.len() == expected)
+        .ok_or_else(|| {
+            bad(&format!(
+                "{} bytes of pixels, expected {expected} for {width}×{height}",
+                bytes.len().saturating_sub(at)
+            ))
+        })?;
+    let value = |i: usize| {
+        let b: [u8; 4] = data[4 * i..4 * i + 4].try_into().expect("4 bytes");
+        if scale < 0.0 {
+            f32::from_le_bytes(b)
+        } else {
+            f32::from_be_bytes(b)
+        }
+    };
+    let mut pixels = vec![Vec3::ZERO; width * height];
+    for y in 0..height {
+        let row = height - 1 - y;
+        for x in 0..width {
+            let i = 3 * (y * width + x);
+            pixels[row * width + x] = Vec3::new(value(i), value(i + 1), value(i + 2));
+        }
+    }
+    Ok((width, height, pixels))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pfm_round_trip_and_errors_name_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.pfm");
+        let pixels: Vec<Vec3> = (0..6).map(|i| Vec3::new(i as f32, 0.5, -1.0)).collect();
+        write_pfm(&path, 3, 2, &pixels).unwrap();
+        assert_eq!(read_pfm(&path).unwrap(), (3, 2, pixels));
+        std::fs::write(&path, b"PF\n3 2\n-1.0\n\0\0").unwrap();
+        let err = read_pfm(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("a.pfm") && err.contains("expected 72"),
+            "{err}"
+        );
+        std::fs::write(&path, b"Pf\n3 2\n-1.0\n").unwrap();
+        assert!(
+            read_pfm(&path)
+                .unwrap_err()
+                .to_string()
+                .contains("colour PFM")
+        );
+    }
 
     #[test]
     fn exr_round_trip_keeps_every_layer_bit_exact() {

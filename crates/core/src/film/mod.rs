@@ -19,7 +19,7 @@ mod io;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-pub use io::{to_srgb8, write_pfm, write_png, write_png_rgb8};
+pub use io::{read_pfm, to_srgb8, write_pfm, write_png, write_png_rgb8};
 
 /// One of the film's radiance layers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]

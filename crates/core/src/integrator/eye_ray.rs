@@ -41,7 +41,7 @@ impl Marcher<'_> {
 
     /// Marches the eye ray, keeping the samples with σt > 0 (and adding emission and depth,
     /// which are cheap), until the eye transmittance falls below `termination`.
-    fn collect_samples(&self, ray: &Ray, rng: &mut Rng, acc: &mut Accumulator) {
+    pub(super) fn collect_samples(&self, ray: &Ray, rng: &mut Rng, acc: &mut Accumulator) {
         acc.samples.clear();
         let Some((t0, t1)) = self.medium.clip(ray) else {
             return;

@@ -55,12 +55,24 @@ impl MapGroup<'_> {
                 false
             }
             None => {
-                self.map
-                    .estimates(x, wo, medium.phase(), &self.gather, scratch, out);
-                mask_estimates(medium, x, &self.masked, scratch.radii(), out);
+                self.estimate_uncached(medium, x, wo, scratch, out);
                 true
             }
         }
+    }
+
+    /// Estimates of every variant of the group at `x` from a gather, cache or not.
+    pub(super) fn estimate_uncached(
+        &self,
+        medium: &Medium,
+        x: Vec3,
+        wo: Vec3,
+        scratch: &mut GatherScratch,
+        out: &mut [Vec3],
+    ) {
+        self.map
+            .estimates(x, wo, medium.phase(), &self.gather, scratch, out);
+        mask_estimates(medium, x, &self.masked, scratch.radii(), out);
     }
 }
 

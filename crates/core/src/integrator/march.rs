@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::cache::TransmittanceCache;
+use super::cache_error::CacheError;
 use super::gather::{MapGroup, MsVariant, group_by_map};
 use crate::control::Control;
 use crate::error::{Error, Result};
@@ -45,6 +46,8 @@ pub struct MarchOutput {
     pub films: Vec<Film>,
     /// Counters.
     pub stats: MarchStats,
+    /// The measured error of the caches, per film (`None` without caches).
+    pub cache_errors: Vec<Option<CacheError>>,
 }
 
 pub(super) struct Marcher<'a> {
@@ -92,7 +95,7 @@ pub(super) struct Accumulator {
 }
 
 impl Accumulator {
-    fn new(variants: usize, groups: usize, max_group: usize) -> Self {
+    pub(super) fn new(variants: usize, groups: usize, max_group: usize) -> Self {
         Accumulator {
             single: Vec3::ZERO,
             emission: Vec3::ZERO,
@@ -262,8 +265,13 @@ pub fn render_march(
         .filter_map(|g| g.cache.as_ref())
         .map(|c| c.computed.load(Ordering::Relaxed))
         .sum();
+    let cache_errors = marcher.cache_errors(camera);
     stats.seconds = start.elapsed().as_secs_f64();
-    Ok(MarchOutput { films, stats })
+    Ok(MarchOutput {
+        films,
+        stats,
+        cache_errors,
+    })
 }
 
 /// Joins the rows into one film per variant (sharing the single, emission and depth

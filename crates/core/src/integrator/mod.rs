@@ -27,12 +27,14 @@
 
 mod adaptive;
 mod cache;
+mod cache_error;
 mod eye_ray;
 mod gather;
 mod march;
 mod reference;
 
 pub use cache::CACHE_TAU_MAX;
+pub use cache_error::{CacheError, ErrorBound};
 pub use gather::MsVariant;
 pub use march::{MarchOutput, MarchStats, render_march};
 pub use reference::{MAX_VERTICES, ReferenceAccumulator, render_reference};

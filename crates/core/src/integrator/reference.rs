@@ -33,8 +33,32 @@ pub struct ReferenceAccumulator {
     width: usize,
     height: usize,
     passes: u32,
-    mean: [Vec<Vec3>; 3],
-    m2: [Vec<Vec3>; 3],
+    pixels: Vec<PixelStats>,
+    /// Whether the total's statistics cover every pass (not after [`Self::from_film`],
+    /// whose film keeps only per-layer variances).
+    total_known: bool,
+}
+
+/// Welford sums of one pixel: mean and sum of squared deviations per layer (single,
+/// multiple, emission) and of their total (whose variance is not the sum of the layers':
+/// one path feeds several layers).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct PixelStats {
+    mean: [Vec3; 4],
+    m2: [Vec3; 4],
+}
+
+impl PixelStats {
+    /// Adds the `n`-th sample (1-based).
+    #[inline]
+    fn add(&mut self, s: &PathSample, n: f32) {
+        let values = [s.single, s.multiple, s.emission, s.single + s.multiple + s.emission];
+        for ((mean, m2), v) in self.mean.iter_mut().zip(&mut self.m2).zip(values) {
+            let delta = v - *mean;
+            *mean += delta / n;
+            *m2 += delta * (v - *mean);
+        }
+    }
 }
 
 /// Radiance of one path, split by layer.
@@ -48,20 +72,12 @@ struct PathSample {
 impl ReferenceAccumulator {
     /// An empty accumulator for `width × height` pixels.
     pub fn new(width: usize, height: usize) -> Self {
-        let n = width * height;
-        let zeros = || {
-            [
-                vec![Vec3::ZERO; n],
-                vec![Vec3::ZERO; n],
-                vec![Vec3::ZERO; n],
-            ]
-        };
         ReferenceAccumulator {
             width,
             height,
             passes: 0,
-            mean: zeros(),
-            m2: zeros(),
+            pixels: vec![PixelStats::default(); width * height],
+            total_known: true,
         }
     }
 
@@ -70,15 +86,23 @@ impl ReferenceAccumulator {
     pub fn from_film(film: &Film, passes: u32) -> Result<Self> {
         let mut acc = ReferenceAccumulator::new(film.width(), film.height());
         acc.passes = passes;
+        acc.total_known = passes == 0;
+        let k = passes as f32 * (passes as f32 - 1.0);
         for layer in Layer::ALL {
             let i = layer as usize;
-            acc.mean[i] = film.layer(layer).to_vec();
-            if passes >= 2 {
-                let var = film.variance(layer).ok_or_else(|| Error::CannotResume {
+            let variance = if passes >= 2 {
+                Some(film.variance(layer).ok_or_else(|| Error::CannotResume {
                     what: "reference accumulator".into(),
-                })?;
-                let k = passes as f32 * (passes as f32 - 1.0);
-                acc.m2[i] = var.iter().map(|v| *v * k).collect();
+                })?)
+            } else {
+                None
+            };
+            for (p, px) in acc.pixels.iter_mut().enumerate() {
+                px.mean[i] = film.layer(layer)[p];
+                px.mean[3] += px.mean[i];
+                if let Some(var) = variance {
+                    px.m2[i] = var[p] * k;
+                }
             }
         }
         Ok(acc)
@@ -107,36 +131,20 @@ impl ReferenceAccumulator {
         let width = self.width;
         let rows_done = AtomicU64::new(0);
         let seed = scene.integrator().seed;
-        let [ms, mm, me] = &mut self.mean;
-        let [vs, vm, ve] = &mut self.m2;
-        ms.par_chunks_mut(width)
-            .zip(mm.par_chunks_mut(width))
-            .zip(me.par_chunks_mut(width))
-            .zip(vs.par_chunks_mut(width))
-            .zip(vm.par_chunks_mut(width))
-            .zip(ve.par_chunks_mut(width))
+        self.pixels
+            .par_chunks_mut(width)
             .enumerate()
-            .for_each(|(y, (((((ms, mm), me), vs), vm), ve))| {
+            .for_each(|(y, row)| {
                 if control.expired() {
                     return;
                 }
-                for x in 0..width {
+                for (x, stats) in row.iter_mut().enumerate() {
                     let pixel = (y * width + x) as u64;
                     for pass in first..first + passes {
                         let mut rng = Rng::stream2(seed, Domain::Reference, pixel, pass as u64);
                         let [jx, jy] = rng.uniform2();
                         let ray = camera.ray(x as f32 + jx, y as f32 + jy);
-                        let s = trace_path(scene, ray, &mut rng);
-                        let n = (pass + 1) as f32;
-                        for (mean, m2, v) in [
-                            (&mut ms[x], &mut vs[x], s.single),
-                            (&mut mm[x], &mut vm[x], s.multiple),
-                            (&mut me[x], &mut ve[x], s.emission),
-                        ] {
-                            let delta = v - *mean;
-                            *mean += delta / n;
-                            *m2 += delta * (v - *mean);
-                        }
+                        stats.add(&trace_path(scene, ray, &mut rng), (pass + 1) as f32);
                     }
                 }
                 control.report(rows_done.fetch_add(1, Ordering::Relaxed) + 1);
@@ -146,21 +154,35 @@ impl ReferenceAccumulator {
         Ok(start.elapsed().as_secs_f64())
     }
 
+    /// Variance of the mean from a sum of squared deviations.
+    fn variance_of_mean(&self, i: usize) -> Vec<Vec3> {
+        let n = self.passes as f32;
+        self.pixels
+            .iter()
+            .map(|p| {
+                if self.passes < 2 {
+                    Vec3::ZERO
+                } else {
+                    p.m2[i] / (n * (n - 1.0))
+                }
+            })
+            .collect()
+    }
+
     /// The current estimate with per-pixel variance of the mean.
     pub fn film(&self) -> Film {
-        let n = self.passes as f32;
-        let var = |m2: &Vec<Vec3>| -> Vec<Vec3> {
-            if self.passes < 2 {
-                vec![Vec3::ZERO; m2.len()]
-            } else {
-                m2.iter().map(|v| *v / (n * (n - 1.0))).collect()
-            }
-        };
-        Film::from_layers(self.width, self.height, self.mean.clone()).with_variance([
-            var(&self.m2[0]),
-            var(&self.m2[1]),
-            var(&self.m2[2]),
+        let layer = |i: usize| self.pixels.iter().map(|p| p.mean[i]).collect();
+        Film::from_layers(self.width, self.height, [layer(0), layer(1), layer(2)]).with_variance([
+            self.variance_of_mean(0),
+            self.variance_of_mean(1),
+            self.variance_of_mean(2),
         ])
+    }
+
+    /// Per-pixel variance of the mean of the total (all layers), when every pass was
+    /// accumulated here.
+    pub fn total_variance(&self) -> Option<Vec<Vec3>> {
+        self.total_known.then(|| self.variance_of_mean(3))
     }
 }
 

@@ -186,7 +186,12 @@ impl Medium {
         self.sigma_t_base * d
     }
 
-    /// σt per unit transferred density.
+    /// How density is reconstructed between voxels.
+    pub fn reconstruction(&self) -> Reconstruction {
+        self.reconstruction
+    }
+
+    /// σt per unit density: `σt(x) = sigma_t_base · density(x)`.
     pub fn sigma_t_base(&self) -> f32 {
         self.sigma_t_base
     }

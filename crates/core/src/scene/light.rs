@@ -162,6 +162,29 @@ impl Light {
         }
     }
 
+    /// The parameters that build this light again (a spot's target one unit along its
+    /// axis; angles in degrees).
+    pub fn params(&self) -> LightParams {
+        match self {
+            Light::Point(p) => LightParams {
+                kind: LightKind::Point,
+                position: p.position.to_array(),
+                target: None,
+                intensity: Intensity::Rgb(p.intensity.to_array()),
+                cone_angle: None,
+                beam_width: None,
+            },
+            Light::Spot(s) => LightParams {
+                kind: LightKind::Spot,
+                position: s.position.to_array(),
+                target: Some((s.position + s.frame.w).to_array()),
+                intensity: Intensity::Rgb(s.intensity.to_array()),
+                cone_angle: Some(s.cone_angle.to_degrees()),
+                beam_width: Some(s.beam_width.to_degrees()),
+            },
+        }
+    }
+
     /// Position of the light.
     pub fn position(&self) -> Vec3 {
         match self {

@@ -36,6 +36,7 @@
 
 mod camera;
 mod diagnostics;
+mod export;
 mod light;
 mod params;
 mod settings;
@@ -45,6 +46,7 @@ use std::sync::Arc;
 
 pub use camera::{Camera, CameraParams};
 pub use diagnostics::{key_at, line_col, locate, locate_error, toml_error};
+pub use export::{MitsubaExport, export_mitsuba};
 pub use light::{
     Incident, Intensity, Light, LightKind, LightParams, PointLight, SpotLight, ThreePointParams,
     three_point,

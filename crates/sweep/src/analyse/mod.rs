@@ -2,6 +2,7 @@
 //! regions, depth cues), its errors against the reference (RMSE, relMSE, SSIM, FLIP, disco
 //! excess), and the metric column schema that turns records into `cells.csv`.
 
+mod agreement;
 mod columns;
 mod disco;
 mod images;
@@ -12,6 +13,7 @@ use anyhow::Result;
 use glam::Vec3;
 use volphot::{Film, SceneParams};
 
+pub(crate) use agreement::{Agreement, agreement, mse_against_noisy_reference};
 pub(crate) use columns::{METRIC_COLUMNS, MetricColumn, is_metric, metric_keys};
 pub(crate) use images::{compare, disco, disco_excess, displayed, image_stats, luminance};
 

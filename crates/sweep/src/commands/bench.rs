@@ -1,8 +1,12 @@
-//! `sweep bench`: the thesis's headline frame, timed.
+//! `sweep bench`: the thesis's headline frame, configurations side by side in one run.
 //!
 //! foot (256³), 512×512, 40 000 photons, nused 150, maxdist 0.1, stepsize 0.0005, three-point
-//! spot lights, single + multiple. The thesis needed 2500–3000 s on a 2006 Xeon (§8.2).
-//! Runs once with the caches (`shadow_cache`, `ms_cache`) and once without.
+//! spot lights, single + multiple (the thesis needed 2500–3000 s on a 2006 Xeon, §8.2).
+//! Each configuration renders the same frame; all are compared with the `marched` one (the
+//! thesis's integrator as v0.1 ran it) layer by layer: bias of the mean and the 99th
+//! percentile of the per-pixel relative error. `efficiency` compares single scattering with
+//! the path tracer's: mean squared error against the true image (estimated from the path
+//! tracer's own mean and variance, its noise removed) times CPU-seconds.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -10,31 +14,65 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use volphot::{
-    Control, Layer, Scene, SearchPath, build_photon_map, load_params, peak_memory_bytes,
+    CacheError, Control, Film, IntegratorParams, Layer, ReferenceAccumulator, Scene, SearchPath,
+    ShadowEstimator, build_photon_map, load_params, peak_memory_bytes, process_cpu_seconds,
 };
 
-use crate::cli::BenchArgs;
+use crate::analyse::{Agreement, agreement, mse_against_noisy_reference};
+use crate::cli::{BenchArgs, BenchConfig};
 
+/// Every configuration, in the order they run.
+const ALL: [BenchConfig; 6] = [
+    BenchConfig::Marched,
+    BenchConfig::Exact,
+    BenchConfig::EverySample,
+    BenchConfig::OneThread,
+    BenchConfig::Cached,
+    BenchConfig::Efficiency,
+];
+
+/// One configuration's run.
 #[derive(Debug, Serialize)]
 struct Measurement {
     configuration: String,
     scene: String,
     resolution: [u32; 2],
     threads: usize,
-    photons_emitted: u64,
     photons_stored: u64,
     photon_tracing_s: f64,
-    photons_per_s: f64,
-    tree_build_s: f64,
     render_s: f64,
-    total_s: f64,
+    cpu_s: Option<f64>,
     samples: u64,
-    samples_per_s: f64,
-    gathers: u64,
     shadow_queries: u64,
+    gathers: u64,
     mean_single: f64,
     mean_multiple: f64,
+    /// Against the `marched` configuration, when it ran.
+    single_vs_marched: Option<Agreement>,
+    multiple_vs_marched: Option<Agreement>,
+    cache_error: Option<CacheError>,
     peak_memory_mib: Option<f64>,
+    #[serde(skip)]
+    film: Film,
+}
+
+/// The single-scattering efficiency comparison.
+#[derive(Debug, Serialize)]
+struct Efficiency {
+    marcher_cpu_s: f64,
+    marcher_rmse: f64,
+    marcher_efficiency: f64,
+    path_passes: u32,
+    path_cpu_s: f64,
+    path_rmse: f64,
+    path_efficiency: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct BenchReport {
+    measurements: Vec<Measurement>,
+    speedup_two_threads: Option<f64>,
+    efficiency: Option<Efficiency>,
 }
 
 /// The headline scene: the foot preset, or the foot phantom at 256² with `--quick`.
@@ -56,6 +94,43 @@ fn headline(args: &BenchArgs) -> PathBuf {
     })
 }
 
+/// The integrator of a configuration, from the scene's own.
+fn configure(config: BenchConfig, base: &IntegratorParams) -> IntegratorParams {
+    let mut s = base.clone();
+    match config {
+        BenchConfig::Marched => {
+            s.shadow = ShadowEstimator::March;
+            (s.shadow_cache, s.ms_cache) = (0, 0);
+        }
+        BenchConfig::Exact | BenchConfig::OneThread => {
+            s.shadow = ShadowEstimator::Exact;
+            (s.shadow_cache, s.ms_cache) = (0, 0);
+        }
+        BenchConfig::EverySample => {
+            s.shadow = ShadowEstimator::Exact;
+            s.shadow_stride = 0;
+            (s.shadow_cache, s.ms_cache) = (0, 0);
+        }
+        BenchConfig::Cached => (s.shadow_cache, s.ms_cache) = (128, 128),
+        BenchConfig::Efficiency => {
+            s.shadow = ShadowEstimator::Exact;
+            s.multiple = false;
+        }
+    }
+    s
+}
+
+fn config_name(config: BenchConfig) -> &'static str {
+    match config {
+        BenchConfig::Marched => "marched",
+        BenchConfig::Exact => "exact",
+        BenchConfig::EverySample => "every-sample",
+        BenchConfig::OneThread => "one-thread",
+        BenchConfig::Cached => "cached",
+        BenchConfig::Efficiency => "efficiency",
+    }
+}
+
 /// Runs the benchmark.
 pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
     let scene_path = headline(args);
@@ -64,77 +139,215 @@ pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
     if args.quick {
         params.camera.resolution = [256, 256];
     }
-    let pool = super::thread_pool(args.threads)?;
+    let pool = crate::render::thread_pool(args.threads)?;
+    let single_pool = crate::render::thread_pool(Some(1))?;
     let base = scene_path.parent().unwrap_or(Path::new("."));
     let scene = pool.install(|| Scene::from_params(&params, base, &SearchPath::from_env()))?;
-    let mut configurations = vec![("cached", 128u32, 128u32)];
-    if !args.cached_only {
-        configurations.push(("uncached", 0, 0));
+    let configs: Vec<BenchConfig> = ALL
+        .into_iter()
+        .filter(|c| args.only.is_empty() || args.only.contains(c))
+        .collect();
+    let mut report = BenchReport {
+        measurements: Vec::new(),
+        speedup_two_threads: None,
+        efficiency: None,
+    };
+    for &config in configs.iter().filter(|c| **c != BenchConfig::Efficiency) {
+        let s = scene.with_integrator(configure(config, scene.integrator()))?;
+        let pool = if config == BenchConfig::OneThread {
+            &single_pool
+        } else {
+            &pool
+        };
+        let m = pool.install(|| measure(config_name(config), &s, &scene_path))?;
+        report.measurements.push(m);
     }
-    let mut results = Vec::new();
-    for (name, shadow_cache, ms_cache) in configurations {
-        let mut integrator = scene.integrator().clone();
-        integrator.shadow_cache = shadow_cache;
-        integrator.ms_cache = ms_cache;
-        let s = scene.with_integrator(integrator)?;
-        eprintln!(
-            "bench {name}: {} at {}×{} on {} thread(s)…",
-            scene_path.display(),
-            params.camera.resolution[0],
-            params.camera.resolution[1],
-            pool.current_num_threads()
-        );
-        let m = pool.install(|| -> Result<Measurement> {
-            let start = std::time::Instant::now();
-            let map = build_photon_map(&s, &Control::none())?;
-            let out = volphot::render_march(&s, &[&map], &[], &Control::none())?;
-            let total = start.elapsed().as_secs_f64();
-            let film = &out.films[0];
-            Ok(Measurement {
-                configuration: name.into(),
-                scene: scene_path.display().to_string(),
-                resolution: params.camera.resolution,
-                threads: rayon::current_num_threads(),
-                photons_emitted: map.stats().emitted,
-                photons_stored: map.stats().stored,
-                photon_tracing_s: map.stats().seconds,
-                photons_per_s: map.stats().emitted as f64 / map.stats().seconds.max(1e-9),
-                tree_build_s: map.build_seconds(),
-                render_s: out.stats.seconds,
-                total_s: total,
-                samples: out.stats.samples,
-                samples_per_s: out.stats.samples as f64 / out.stats.seconds.max(1e-9),
-                gathers: out.stats.gathers,
-                shadow_queries: out.stats.shadow_queries,
-                mean_single: film.mean(Layer::Single),
-                mean_multiple: film.mean(Layer::Multiple),
-                peak_memory_mib: peak_memory_bytes().map(|b| b as f64 / 1048576.0),
-            })
-        })?;
-        println!(
-            "{:<9} total {:>7.2} s | photons {:>7.3} s ({:.2e}/s, {} stored) | tree {:.3} s | render {:>7.2} s, {:.2e} samples/s | peak {:.0} MiB",
-            m.configuration,
-            m.total_s,
-            m.photon_tracing_s,
-            m.photons_per_s,
-            m.photons_stored,
-            m.tree_build_s,
-            m.render_s,
-            m.samples_per_s,
-            m.peak_memory_mib.unwrap_or(f64::NAN)
-        );
-        results.push(m);
-    }
-    if results.len() == 2 {
-        let (c, u) = (&results[0], &results[1]);
-        println!(
-            "cache error: mean single {:+.2} %, mean multiple {:+.2} % (cached vs uncached)",
-            100.0 * (c.mean_single / u.mean_single - 1.0),
-            100.0 * (c.mean_multiple / u.mean_multiple - 1.0)
-        );
+    compare_with_marched(&mut report.measurements);
+    print_measurements(&report.measurements);
+    report.speedup_two_threads = speedup(&report.measurements);
+    if configs.contains(&BenchConfig::Efficiency) {
+        let s = scene.with_integrator(configure(BenchConfig::Efficiency, scene.integrator()))?;
+        let e = pool.install(|| efficiency(&s, args.reference_passes))?;
+        print_efficiency(&e);
+        report.efficiency = Some(e);
     }
     if let Some(path) = &args.json {
-        volphot::write_atomic(path, serde_json::to_string_pretty(&results)?.as_bytes())?;
+        volphot::write_atomic(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Renders `scene` once with the photon integrator, timed in wall and CPU seconds.
+fn measure(name: &str, scene: &Scene, scene_path: &Path) -> Result<Measurement> {
+    let [w, h] = scene.params().camera.resolution;
+    eprintln!(
+        "bench {name}: {} at {w}×{h} on {} thread(s)…",
+        scene_path.display(),
+        rayon::current_num_threads()
+    );
+    let cpu_start = process_cpu_seconds();
+    let map = build_photon_map(scene, &Control::none())?;
+    let out = volphot::render_march(scene, &[&map], &[], &Control::none())?;
+    let cpu_s = process_cpu_seconds()
+        .zip(cpu_start)
+        .map(|(end, start)| end - start);
+    let film = out.films.into_iter().next().expect("one film");
+    Ok(Measurement {
+        configuration: name.into(),
+        scene: scene_path.display().to_string(),
+        resolution: [w, h],
+        threads: rayon::current_num_threads(),
+        photons_stored: map.stats().stored,
+        photon_tracing_s: map.stats().seconds,
+        render_s: out.stats.seconds,
+        cpu_s,
+        samples: out.stats.samples,
+        shadow_queries: out.stats.shadow_queries,
+        gathers: out.stats.gathers,
+        mean_single: film.mean(Layer::Single),
+        mean_multiple: film.mean(Layer::Multiple),
+        single_vs_marched: None,
+        multiple_vs_marched: None,
+        cache_error: out.cache_errors.into_iter().next().flatten(),
+        peak_memory_mib: peak_memory_bytes().map(|b| b as f64 / 1048576.0),
+        film,
+    })
+}
+
+/// Fills each measurement's agreement with the `marched` one.
+fn compare_with_marched(measurements: &mut [Measurement]) {
+    let Some(marched) = measurements
+        .iter()
+        .find(|m| m.configuration == "marched")
+        .map(|m| m.film.clone())
+    else {
+        return;
+    };
+    for m in measurements.iter_mut() {
+        m.single_vs_marched = agreement(m.film.layer(Layer::Single), marched.layer(Layer::Single));
+        m.multiple_vs_marched = agreement(
+            m.film.layer(Layer::Multiple),
+            marched.layer(Layer::Multiple),
+        );
+    }
+}
+
+/// Render time on one thread over render time on the pool, when both ran.
+fn speedup(measurements: &[Measurement]) -> Option<f64> {
+    let time = |name: &str| {
+        measurements
+            .iter()
+            .find(|m| m.configuration == name)
+            .map(|m| m.render_s)
+    };
+    let (one, many) = (time("one-thread")?, time("exact")?);
+    let threads = measurements
+        .iter()
+        .find(|m| m.configuration == "exact")?
+        .threads;
+    println!(
+        "thread scaling: exact on {threads} thread(s) is {:.2}× one thread",
+        one / many
+    );
+    Some(one / many)
+}
+
+fn print_measurements(measurements: &[Measurement]) {
+    let pct = |a: Option<Agreement>| match a {
+        Some(a) => format!("{:+7.2} % {:6.2} %", 100.0 * a.mean, 100.0 * a.p99),
+        None => format!("{:>18}", "—"),
+    };
+    println!(
+        "{:<13} {:>3} {:>9} {:>9} {:>10} {:>10} | {:^18} | {:^18}",
+        "config",
+        "thr",
+        "render s",
+        "CPU s",
+        "samples/s",
+        "shadow/smp",
+        "single: bias, p99",
+        "multiple: bias, p99"
+    );
+    for m in measurements {
+        println!(
+            "{:<13} {:>3} {:>9.2} {:>9.2} {:>10.3e} {:>10.2} | {} | {}",
+            m.configuration,
+            m.threads,
+            m.render_s,
+            m.cpu_s.unwrap_or(f64::NAN),
+            m.samples as f64 / m.render_s.max(1e-9),
+            m.shadow_queries as f64 / m.samples.max(1) as f64,
+            pct(m.single_vs_marched),
+            pct(m.multiple_vs_marched)
+        );
+        if let Some(e) = &m.cache_error {
+            for (what, b) in [("shadow", e.shadow), ("scattering", e.multiple)] {
+                if let Some(b) = b {
+                    println!(
+                        "{:<13} {what} cache measured at {} probes: bias {:+.2} %, p99 {:.2} %, max {:.1} %",
+                        "",
+                        e.probes,
+                        100.0 * b.mean,
+                        100.0 * b.p99,
+                        100.0 * b.max
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// Single scattering: the marcher's squared error times CPU-seconds against the path
+/// tracer's (whose mean squared error at `n` passes is its per-pass variance over `n`, so
+/// its efficiency does not depend on `n`).
+fn efficiency(scene: &Scene, passes: u32) -> Result<Efficiency> {
+    eprintln!("bench efficiency: single scattering, marcher vs path tracer ({passes} passes)…");
+    let cpu = || process_cpu_seconds().context("CPU time is not available here");
+    let start = cpu()?;
+    let out = volphot::render_march(scene, &[], &[], &Control::none())?;
+    let marcher_cpu_s = cpu()? - start;
+    let camera = scene.camera();
+    let mut reference =
+        ReferenceAccumulator::new(camera.width() as usize, camera.height() as usize);
+    let start = cpu()?;
+    reference.add_passes(scene, passes, &Control::none())?;
+    let path_cpu_s = cpu()? - start;
+    let reference = reference.film();
+    let variance = reference
+        .variance(Layer::Single)
+        .context("the path tracer's film keeps its variance")?;
+    let marcher_mse = mse_against_noisy_reference(
+        out.films[0].layer(Layer::Single),
+        reference.layer(Layer::Single),
+        variance,
+    );
+    // Variance of the mean at `passes` = the path tracer's own mean squared error.
+    let path_mse = variance
+        .iter()
+        .map(|v| (v.x + v.y + v.z) as f64)
+        .sum::<f64>()
+        / (3 * variance.len()) as f64;
+    Ok(Efficiency {
+        marcher_cpu_s,
+        marcher_rmse: marcher_mse.max(0.0).sqrt(),
+        marcher_efficiency: marcher_mse.max(0.0) * marcher_cpu_s,
+        path_passes: passes,
+        path_cpu_s,
+        path_rmse: path_mse.sqrt(),
+        path_efficiency: path_mse * path_cpu_s,
+    })
+}
+
+fn print_efficiency(e: &Efficiency) {
+    println!(
+        "single scattering, RMSE² × CPU-s (lower is better): marcher {:.3e} (RMSE {:.3e} in {:.1} CPU-s), path tracer {:.3e} (RMSE {:.3e} at {} passes in {:.1} CPU-s); the marcher is {:.2}× as efficient",
+        e.marcher_efficiency,
+        e.marcher_rmse,
+        e.marcher_cpu_s,
+        e.path_efficiency,
+        e.path_rmse,
+        e.path_passes,
+        e.path_cpu_s,
+        e.path_efficiency / e.marcher_efficiency.max(f64::MIN_POSITIVE)
+    );
 }

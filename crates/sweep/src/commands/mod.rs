@@ -2,6 +2,7 @@
 
 mod bench;
 mod datasets;
+mod export;
 mod plan;
 mod render;
 mod report;
@@ -25,5 +26,6 @@ pub(crate) fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Report(a) => report::run(&a),
         Command::Status(a) => status::run(&a),
         Command::Bench(a) => bench::run(&a),
+        Command::Export(a) => export::run(&a),
     }
 }

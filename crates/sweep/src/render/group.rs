@@ -2,7 +2,7 @@
 //! [`volphot::render_shared`] call and written cell by cell (film, PNGs, record, metrics).
 
 use anyhow::Result;
-use volphot::{Film, Layer, PhotonStats, Provenance, Scene, SearchPath, write_png};
+use volphot::{Layer, Provenance, Scene, SearchPath, SharedFilm, write_png};
 
 use super::Job;
 use super::scenes::Caches;
@@ -122,14 +122,7 @@ pub(crate) fn render_group(
             march_shared_by: jobs.len(),
             map_shared_by: result.map_shared_by,
         };
-        match write_cell(
-            job,
-            &scene,
-            &result.film,
-            result.photons.clone(),
-            timings,
-            ctx.out,
-        ) {
+        match write_cell(job, &scene, result, timings, ctx.out) {
             Ok(()) => rendered += 1,
             Err(e) => failures.push((job.spec.index, format!("{e:#}"))),
         }
@@ -147,11 +140,11 @@ pub(crate) fn render_group(
 fn write_cell(
     job: &Job,
     scene: &Scene,
-    film: &Film,
-    photons: Option<PhotonStats>,
+    result: &SharedFilm,
     mut timings: CellTimings,
     out: &OutputDir,
 ) -> Result<()> {
+    let film = &result.film;
     anyhow::ensure!(
         film.is_finite(),
         "cell {} rendered non-finite pixels",
@@ -179,7 +172,8 @@ fn write_cell(
         label: job.spec.label(),
         axes: job.axes_json(),
         provenance,
-        photons,
+        photons: result.photons.clone(),
+        cache_error: result.cache_error.clone(),
         timings,
         peak_memory_bytes: volphot::peak_memory_bytes(),
         mean_single: film.mean(Layer::Single),

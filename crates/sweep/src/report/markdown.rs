@@ -50,6 +50,7 @@ impl Report<'_> {
         self.header(&mut s);
         self.grid(&mut s);
         self.provenance(&mut s);
+        self.caches(&mut s);
         self.figures(&mut s);
         self.cells_table(&mut s);
         self.failures(&mut s);
@@ -142,6 +143,54 @@ impl Report<'_> {
             with_maps().count(),
             done = self.done(),
         );
+    }
+
+    /// Cells rendered with a cache, and what the cache was measured to err by (nothing
+    /// when no cell used one).
+    fn caches(&self, s: &mut String) {
+        let cached: Vec<_> = self
+            .cells
+            .iter()
+            .filter_map(|c| Some((c, c.record.as_ref()?.cache_error.as_ref()?)))
+            .collect();
+        if cached.is_empty() {
+            return;
+        }
+        let _ = writeln!(
+            s,
+            "## Caches
+"
+        );
+        let _ = writeln!(
+            s,
+            "{} cell(s) were rendered with a cache, which is not exact. At the marching samples of 32 × 32 eye rays each cache was compared with the value it stands for (direct light with exact transmittance; a photon gather): bias of the mean, and the 99th percentile and maximum of the per-point relative error.\n",
+            cached.len()
+        );
+        let _ = writeln!(
+            s,
+            "| cell | probes | shadow cache: bias, p99, max | scattering cache: bias, p99, max |"
+        );
+        let _ = writeln!(s, "|---|---:|---|---|");
+        let bound = |b: &Option<volphot::ErrorBound>| match b {
+            Some(b) => format!(
+                "{:+.2} %, {:.2} %, {:.1} %",
+                100.0 * b.mean,
+                100.0 * b.p99,
+                100.0 * b.max
+            ),
+            None => "—".into(),
+        };
+        for (c, e) in cached {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} |",
+                c.planned.label,
+                e.probes,
+                bound(&e.shadow),
+                bound(&e.multiple)
+            );
+        }
+        let _ = writeln!(s);
     }
 
     /// Volumes and references.

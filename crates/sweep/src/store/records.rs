@@ -127,6 +127,9 @@ pub(crate) struct CellRecord {
     pub(crate) provenance: Provenance,
     /// Photon statistics (when the cell used a photon map).
     pub(crate) photons: Option<PhotonStats>,
+    /// What the caches were measured to err by, when the cell was rendered with one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) cache_error: Option<volphot::CacheError>,
     /// Timings.
     pub(crate) timings: CellTimings,
     /// Peak resident memory of the process after the cell, bytes.

@@ -1,0 +1,198 @@
+//! The measured error of a render's caches.
+//!
+//! A cache trades exactness for speed, so a render that used one says by how much: after
+//! the pass, the marching samples of a regular 32 × 32 subset of the eye rays (the same
+//! samples the render used) are probed, and at each the cached quantity is compared with
+//! the value it stands for — the direct light `Σ L·T·p` with cached against exact
+//! transmittance, and each variant's multiple-scattering estimate from the cache against
+//! a gather. Where the exact value is at least 1 % of its largest, the relative error is
+//! taken; the bound reports its 99th percentile and maximum, and the ratio of the sums
+//! (the bias a mean would show).
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::march::{Accumulator, Marcher};
+use crate::math::{Domain, Rng};
+use crate::medium::Medium;
+use crate::scene::Camera;
+
+/// Eye rays probed per image axis.
+const PROBE_RAYS_PER_AXIS: u32 = 32;
+/// At most this many probe points (every k-th sample beyond).
+const MAX_PROBES: usize = 8192;
+
+/// The error of one cached quantity at the probes.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ErrorBound {
+    /// Σ cached / Σ exact − 1: the bias of a mean.
+    pub mean: f64,
+    /// 99th percentile of |cached − exact| / exact.
+    pub p99: f64,
+    /// Largest |cached − exact| / exact.
+    pub max: f64,
+}
+
+impl ErrorBound {
+    /// The bound of paired `(cached, exact)` values: relative errors where the exact value
+    /// is at least 1 % of the largest (`None` when no value is).
+    pub fn of(pairs: &[(f32, f32)]) -> Option<ErrorBound> {
+        let largest = pairs.iter().map(|p| p.1).fold(0.0f32, f32::max);
+        if largest <= 0.0 {
+            return None;
+        }
+        let (mut cached, mut exact) = (0.0f64, 0.0f64);
+        let mut relative: Vec<f64> = Vec::with_capacity(pairs.len());
+        for &(c, e) in pairs {
+            cached += c as f64;
+            exact += e as f64;
+            if e >= 0.01 * largest {
+                relative.push(((c - e) / e).abs() as f64);
+            }
+        }
+        relative.sort_by(f64::total_cmp);
+        let p99 = relative[((relative.len() - 1) as f64 * 0.99).round() as usize];
+        Some(ErrorBound {
+            mean: cached / exact - 1.0,
+            p99,
+            max: *relative.last().expect("the largest value qualifies"),
+        })
+    }
+}
+
+/// What a render's caches were measured to err by, for one output image.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CacheError {
+    /// Probe points.
+    pub probes: usize,
+    /// The direct light with the transmittance cache (`shadow_cache`).
+    pub shadow: Option<ErrorBound>,
+    /// The multiple-scattering estimate with the scattering cache (`ms_cache`).
+    pub multiple: Option<ErrorBound>,
+}
+
+impl Marcher<'_> {
+    /// Whether any cache is on.
+    pub(super) fn uses_caches(&self) -> bool {
+        self.shadow_caches.is_some() || self.groups.iter().any(|g| g.cache.is_some())
+    }
+
+    /// The cache error of each variant's image (one entry when there are no variants);
+    /// `None` entries without caches.
+    pub(super) fn cache_errors(&self, camera: &Camera) -> Vec<Option<CacheError>> {
+        let images = self.variants.len().max(1);
+        if !self.uses_caches() {
+            return vec![None; images];
+        }
+        let probes = self.probe_points(camera);
+        let shadow = self
+            .shadow_caches
+            .is_some()
+            .then(|| self.shadow_error(&probes));
+        let mut multiple = vec![None; images];
+        for group in self.groups.iter().filter(|g| g.cache.is_some()) {
+            let mut pairs = vec![Vec::with_capacity(probes.len()); group.variants.len()];
+            let (mut cached, mut exact) = (vec![Vec3::ZERO; group.gather.len()], vec![]);
+            exact.resize(group.gather.len(), Vec3::ZERO);
+            let mut scratch = Default::default();
+            for &(x, wo) in &probes {
+                group.estimate(self.medium, x, wo, &mut scratch, &mut cached);
+                group.estimate_uncached(self.medium, x, wo, &mut scratch, &mut exact);
+                for (j, p) in pairs.iter_mut().enumerate() {
+                    p.push((mean3(cached[j]), mean3(exact[j])));
+                }
+            }
+            for (&vi, p) in group.variants.iter().zip(&pairs) {
+                multiple[vi] = ErrorBound::of(p);
+            }
+        }
+        multiple
+            .into_iter()
+            .map(|multiple| {
+                Some(CacheError {
+                    probes: probes.len(),
+                    shadow: shadow.flatten(),
+                    multiple,
+                })
+            })
+            .collect()
+    }
+
+    /// The marching samples (and view directions) of a regular subset of eye rays, drawn
+    /// from the render's own per-pixel streams.
+    fn probe_points(&self, camera: &Camera) -> Vec<(Vec3, Vec3)> {
+        let (w, h) = (camera.width(), camera.height());
+        let mut acc = Accumulator::new(0, 0, 0);
+        let mut points = Vec::new();
+        for j in 0..PROBE_RAYS_PER_AXIS.min(h) {
+            for i in 0..PROBE_RAYS_PER_AXIS.min(w) {
+                let (x, y) = (
+                    (2 * i + 1) * w / (2 * PROBE_RAYS_PER_AXIS.min(w)),
+                    (2 * j + 1) * h / (2 * PROBE_RAYS_PER_AXIS.min(h)),
+                );
+                let pixel = y as u64 * w as u64 + x as u64;
+                let mut rng = Rng::stream2(self.settings.seed, Domain::Pixels, pixel, 0);
+                let [jx, jy] = rng.uniform2();
+                let ray = camera.ray(x as f32 + jx, y as f32 + jy);
+                self.collect_samples(&ray, &mut rng, &mut acc);
+                points.extend(acc.samples.iter().map(|s| (s.x, -ray.direction)));
+            }
+        }
+        let keep_every = points.len().div_ceil(MAX_PROBES).max(1);
+        points.into_iter().step_by(keep_every).collect()
+    }
+
+    /// Direct light at the probes with cached and with exact transmittance.
+    fn shadow_error(&self, probes: &[(Vec3, Vec3)]) -> Option<ErrorBound> {
+        let pairs: Vec<(f32, f32)> = probes
+            .iter()
+            .map(|&(x, wo)| {
+                let (mut cached, mut exact) = (0.0, 0.0);
+                for (li, light) in self.lights.iter().enumerate() {
+                    let Some(inc) = light.incident(x) else {
+                        continue;
+                    };
+                    let scale = mean3(inc.radiance) * self.medium.phase().eval(-inc.to_light, wo);
+                    let cache = &self.shadow_caches.as_ref().expect("shadow caches")[li];
+                    cached += scale * cache.transmittance(self.medium, light, x);
+                    exact +=
+                        scale * exact_transmittance(self.medium, x, inc.to_light, inc.distance);
+                }
+                (cached, exact)
+            })
+            .collect();
+        ErrorBound::of(&pairs)
+    }
+}
+
+/// `exp(−τ)` with τ integrated exactly (no termination).
+fn exact_transmittance(medium: &Medium, x: Vec3, to_light: Vec3, distance: f32) -> f32 {
+    let ray = crate::math::Ray {
+        origin: x,
+        direction: to_light,
+    };
+    match medium.clip(&ray) {
+        Some((t0, t1)) => {
+            (-medium.optical_depth_exact(&ray, t0, t1.min(distance), f32::INFINITY)).exp()
+        }
+        None => 1.0,
+    }
+}
+
+fn mean3(v: Vec3) -> f32 {
+    (v.x + v.y + v.z) / 3.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_ignore_negligible_values_and_report_the_bias() {
+        let pairs = [(1.1, 1.0), (0.9, 1.0), (2.0, 2.0), (1e-6, 1e-4)];
+        let b = ErrorBound::of(&pairs).unwrap();
+        assert!((b.max - 0.1).abs() < 1e-6, "{b:?}");
+        assert!((b.mean - (4.000001 / 4.0001 - 1.0)).abs() < 1e-9, "{b:?}");
+        assert_eq!(ErrorBound::of(&[(1.0, 0.0)]), None);
+    }
+}

@@ -1,0 +1,387 @@
+//! A scene for another renderer: Mitsuba 3, so that a peer renders exactly what volphot
+//! renders ([`export_mitsuba`]).
+//!
+//! Conventions, each checked against Mitsuba 3.9.1's sources and renders and pinned by the
+//! tests below:
+//! * the grid is the *transferred* density (the transfer function applied per voxel, as
+//!   volphot does before interpolating), written as a `.vol` file: `VOL`, version 3,
+//!   encoding 1 (float32), resolution, 1 channel, the box, then the values with x fastest;
+//!   `sigma_t = scale · grid` with `scale` = volphot's σt per unit density;
+//! * Mitsuba places voxel `i` at `(i + ½)/n` of the box, interpolates between centres and
+//!   clamps beyond them — volphot's reconstruction exactly; the file's box is ignored by
+//!   Mitsuba, so the grid's `to_world` maps the unit cube onto the volume box, and the
+//!   medium's boundary is a `null` cube on the same box;
+//! * the camera's `fov` is vertical (`fov_axis = "y"`; Mitsuba's default is x), its film
+//!   uses a box filter (default: Gaussian) and float32;
+//! * spot lights give both angles explicitly (Mitsuba's `beam_width` defaults to 0.75 ×
+//!   cutoff, volphot's to 0.8 × cone); both fall off linearly in angle from the beam width
+//!   to the cutoff, and `intensity` is radiant intensity on the axis in W/sr;
+//! * `volpath` with `max_depth` 2 renders single scattering (one medium vertex plus next-
+//!   event estimation), −1 everything; `$max_depth`, `$spp` and `$seed` are parameters of
+//!   the XML (`mi.load_file(path, max_depth=2)`).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+use super::{LightKind, Scene};
+use crate::error::{Error, Result};
+use crate::util::write_atomic;
+use crate::volume::Reconstruction;
+
+/// The files [`export_mitsuba`] wrote.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MitsubaExport {
+    /// The scene (Mitsuba XML, version 3.0.0).
+    pub scene: PathBuf,
+    /// The density grid it reads.
+    pub grid: PathBuf,
+}
+
+/// Writes `scene` for Mitsuba 3 into `dir` as `NAME.xml` and `NAME.vol`.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use std::path::Path;
+/// use volphot::{Scene, SceneParams, SearchPath, export_mitsuba};
+/// let toml = "[volume]\nphantom = { name = \"sphere\", resolution = [8, 8, 8] }\n[three_point]\n";
+/// let params = SceneParams::from_toml(toml, Path::new("inline.toml"))?;
+/// let scene = Scene::from_params(&params, Path::new("."), &SearchPath::new(vec![]))?;
+/// let dir = std::env::temp_dir().join(format!("volphot-export-doc-{}", std::process::id()));
+/// let files = export_mitsuba(&scene, &dir, "sphere")?;
+/// assert!(std::fs::read_to_string(&files.scene)?.contains("<string name=\"fov_axis\" value=\"y\"/>"));
+/// assert_eq!(std::fs::metadata(&files.grid)?.len(), 48 + 4 * 8 * 8 * 8);
+/// # std::fs::remove_dir_all(dir)?;
+/// # Ok(())
+/// # }
+/// ```
+pub fn export_mitsuba(scene: &Scene, dir: &Path, name: &str) -> Result<MitsubaExport> {
+    check_exportable(scene)?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let grid = dir.join(format!("{name}.vol"));
+    let xml = dir.join(format!("{name}.xml"));
+    write_atomic(&grid, &vol_bytes(scene))?;
+    write_atomic(&xml, scene_xml(scene, &format!("{name}.vol")).as_bytes())?;
+    Ok(MitsubaExport { scene: xml, grid })
+}
+
+/// What Mitsuba's volumetric path tracer cannot render the same way is refused, naming the
+/// key.
+fn check_exportable(scene: &Scene) -> Result<()> {
+    let base = scene.params().sigma.emission.unwrap_or([0.0; 3]);
+    let emits = scene.integrator().emission && base != [0.0; 3];
+    if emits {
+        return Err(Error::parameter(
+            "integrator.emission",
+            "true",
+            "false for Mitsuba: its heterogeneous medium does not emit",
+        ));
+    }
+    Ok(())
+}
+
+/// The transferred density grid as a Mitsuba `.vol` file.
+fn vol_bytes(scene: &Scene) -> Vec<u8> {
+    let grid = scene.medium().density_grid();
+    let [nx, ny, nz] = grid.dims();
+    let bounds = grid.bounds();
+    let mut bytes = Vec::with_capacity(48 + 4 * grid.values().len());
+    bytes.extend_from_slice(b"VOL");
+    bytes.push(3);
+    bytes.extend_from_slice(&1i32.to_le_bytes());
+    for n in [nx, ny, nz, 1] {
+        bytes.extend_from_slice(&(n as i32).to_le_bytes());
+    }
+    for v in bounds
+        .min
+        .to_array()
+        .into_iter()
+        .chain(bounds.max.to_array())
+    {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    // volphot's grid is x fastest, as the format wants.
+    for v in grid.values() {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    bytes
+}
+
+/// Three numbers as Mitsuba writes them: `x, y, z` (shortest round-trip decimals).
+fn triple(v: [f32; 3]) -> String {
+    format!("{}, {}, {}", v[0], v[1], v[2])
+}
+
+/// The scene as Mitsuba 3 XML.
+fn scene_xml(scene: &Scene, grid_file: &str) -> String {
+    let p = scene.params();
+    let medium = scene.medium();
+    let bounds = medium.bounds();
+    let (centre, half) = (bounds.center(), bounds.extent() * 0.5);
+    let mut x = String::new();
+    let _ = writeln!(x, "<scene version=\"3.0.0\">");
+    let _ = writeln!(
+        x,
+        "    <!-- Written by volphot {} (sweep export); conventions: volphot's scene/export.rs. -->",
+        env!("CARGO_PKG_VERSION")
+    );
+    let _ = writeln!(
+        x,
+        "    <default name=\"spp\" value=\"{}\"/>",
+        p.integrator.reference_spp
+    );
+    let _ = writeln!(x, "    <default name=\"max_depth\" value=\"-1\"/>");
+    let _ = writeln!(
+        x,
+        "    <default name=\"seed\" value=\"{}\"/>",
+        p.integrator.seed
+    );
+    let _ = writeln!(x, "    <integrator type=\"volpath\">");
+    let _ = writeln!(
+        x,
+        "        <integer name=\"max_depth\" value=\"$max_depth\"/>"
+    );
+    let _ = writeln!(x, "    </integrator>");
+    sensor_xml(&mut x, scene);
+    let _ = writeln!(x, "    <medium type=\"heterogeneous\" id=\"medium\">");
+    let _ = writeln!(x, "        <volume type=\"gridvolume\" name=\"sigma_t\">");
+    let _ = writeln!(
+        x,
+        "            <string name=\"filename\" value=\"{grid_file}\"/>"
+    );
+    let filter = match medium.reconstruction() {
+        Reconstruction::Trilinear => "trilinear",
+        Reconstruction::Nearest => "nearest",
+    };
+    let _ = writeln!(
+        x,
+        "            <string name=\"filter_type\" value=\"{filter}\"/>"
+    );
+    let _ = writeln!(x, "            <transform name=\"to_world\">");
+    let _ = writeln!(
+        x,
+        "                <scale value=\"{}\"/>",
+        triple(bounds.extent().to_array())
+    );
+    let _ = writeln!(
+        x,
+        "                <translate value=\"{}\"/>",
+        triple(bounds.min.to_array())
+    );
+    let _ = writeln!(x, "            </transform>");
+    let _ = writeln!(x, "        </volume>");
+    let _ = writeln!(
+        x,
+        "        <float name=\"scale\" value=\"{}\"/>",
+        medium.sigma_t_base()
+    );
+    let _ = writeln!(
+        x,
+        "        <rgb name=\"albedo\" value=\"{}\"/>",
+        triple(medium.albedo().to_array())
+    );
+    match medium.phase().g() {
+        0.0 => {
+            let _ = writeln!(x, "        <phase type=\"isotropic\"/>");
+        }
+        g => {
+            let _ = writeln!(
+                x,
+                "        <phase type=\"hg\"><float name=\"g\" value=\"{g}\"/></phase>"
+            );
+        }
+    }
+    let _ = writeln!(x, "    </medium>");
+    let _ = writeln!(x, "    <shape type=\"cube\">");
+    let _ = writeln!(x, "        <transform name=\"to_world\">");
+    let _ = writeln!(
+        x,
+        "            <scale value=\"{}\"/>",
+        triple(half.to_array())
+    );
+    let _ = writeln!(
+        x,
+        "            <translate value=\"{}\"/>",
+        triple(centre.to_array())
+    );
+    let _ = writeln!(x, "        </transform>");
+    let _ = writeln!(x, "        <bsdf type=\"null\"/>");
+    let _ = writeln!(x, "        <ref name=\"interior\" id=\"medium\"/>");
+    let _ = writeln!(x, "    </shape>");
+    for light in scene.lights() {
+        emitter_xml(&mut x, &light.params());
+    }
+    let _ = writeln!(x, "</scene>");
+    x
+}
+
+fn sensor_xml(x: &mut String, scene: &Scene) {
+    let c = &scene.params().camera;
+    let _ = writeln!(x, "    <sensor type=\"perspective\">");
+    let _ = writeln!(x, "        <float name=\"fov\" value=\"{}\"/>", c.fov);
+    let _ = writeln!(x, "        <string name=\"fov_axis\" value=\"y\"/>");
+    let _ = writeln!(x, "        <float name=\"near_clip\" value=\"0.0001\"/>");
+    let _ = writeln!(x, "        <transform name=\"to_world\">");
+    let _ = writeln!(
+        x,
+        "            <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>",
+        triple(c.eye),
+        triple(c.look_at),
+        triple(c.up)
+    );
+    let _ = writeln!(x, "        </transform>");
+    let _ = writeln!(x, "        <film type=\"hdrfilm\">");
+    let _ = writeln!(
+        x,
+        "            <integer name=\"width\" value=\"{}\"/>",
+        c.resolution[0]
+    );
+    let _ = writeln!(
+        x,
+        "            <integer name=\"height\" value=\"{}\"/>",
+        c.resolution[1]
+    );
+    let _ = writeln!(
+        x,
+        "            <string name=\"pixel_format\" value=\"rgb\"/>"
+    );
+    let _ = writeln!(
+        x,
+        "            <string name=\"component_format\" value=\"float32\"/>"
+    );
+    let _ = writeln!(x, "            <rfilter type=\"box\"/>");
+    let _ = writeln!(x, "        </film>");
+    let _ = writeln!(x, "        <sampler type=\"independent\">");
+    let _ = writeln!(
+        x,
+        "            <integer name=\"sample_count\" value=\"$spp\"/>"
+    );
+    let _ = writeln!(x, "            <integer name=\"seed\" value=\"$seed\"/>");
+    let _ = writeln!(x, "        </sampler>");
+    let _ = writeln!(x, "    </sensor>");
+}
+
+fn emitter_xml(x: &mut String, light: &super::LightParams) {
+    let intensity = triple(light.intensity.rgb().to_array());
+    match light.kind {
+        LightKind::Point => {
+            let _ = writeln!(x, "    <emitter type=\"point\">");
+            let _ = writeln!(
+                x,
+                "        <point name=\"position\" value=\"{}\"/>",
+                triple(light.position)
+            );
+        }
+        LightKind::Spot => {
+            let position = Vec3::from(light.position);
+            let target = Vec3::from(light.target.expect("a spot light has a target"));
+            // Any up vector not parallel to the axis: Mitsuba's spot is symmetric about it.
+            let axis = (target - position).normalize();
+            let up = if axis.z.abs() < 0.9 { Vec3::Z } else { Vec3::X };
+            let _ = writeln!(x, "    <emitter type=\"spot\">");
+            let _ = writeln!(x, "        <transform name=\"to_world\">");
+            let _ = writeln!(
+                x,
+                "            <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>",
+                triple(light.position),
+                triple(target.to_array()),
+                triple(up.to_array())
+            );
+            let _ = writeln!(x, "        </transform>");
+            let cone = light.cone_angle.expect("a spot light has a cone angle");
+            let beam = light.beam_width.expect("a spot light has a beam width");
+            let _ = writeln!(x, "        <float name=\"cutoff_angle\" value=\"{cone}\"/>");
+            let _ = writeln!(x, "        <float name=\"beam_width\" value=\"{beam}\"/>");
+        }
+    }
+    let _ = writeln!(x, "        <rgb name=\"intensity\" value=\"{intensity}\"/>");
+    let _ = writeln!(x, "    </emitter>");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util;
+
+    fn exported() -> (tempfile::TempDir, Scene, MitsubaExport) {
+        let scene = test_util::scene(
+            "[volume]\nphantom = { name = \"sphere\", resolution = [8, 6, 5] }\n[camera]\nfov = 37\nresolution = [24, 16]\n[[lights]]\ntype = \"spot\"\nposition = [0.5, -1.5, 0.5]\ntarget = [0.5, 0.5, 0.5]\nintensity = [3, 4, 5]\ncone_angle = 25\nbeam_width = 10\n[[lights]]\ntype = \"point\"\nposition = [2, 0.5, 0.5]\nintensity = 7\n",
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let files = export_mitsuba(&scene, dir.path(), "peer").unwrap();
+        (dir, scene, files)
+    }
+
+    #[test]
+    fn the_grid_is_the_transferred_density_x_fastest_with_the_box() {
+        let (_dir, scene, files) = exported();
+        let bytes = std::fs::read(&files.grid).unwrap();
+        let grid = scene.medium().density_grid();
+        let [nx, ny, nz] = grid.dims();
+        assert_eq!(&bytes[..4], b"VOL\x03");
+        let int = |at: usize| i32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+        let float = |at: usize| f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+        assert_eq!(
+            [int(4), int(8), int(12), int(16), int(20)],
+            [1, nx as i32, ny as i32, nz as i32, 1]
+        );
+        assert_eq!(
+            [float(24), float(36)],
+            [grid.bounds().min.x, grid.bounds().max.x]
+        );
+        assert_eq!(bytes.len(), 48 + 4 * nx * ny * nz);
+        // Voxel (x, y, z) at ((z·ny + y)·nx + x): Mitsuba's order.
+        for (x, y, z) in [
+            (0, 0, 0),
+            (nx - 1, 0, 0),
+            (1, ny - 1, 2),
+            (nx - 1, ny - 1, nz - 1),
+        ] {
+            let at = 48 + 4 * ((z * ny + y) * nx + x);
+            assert_eq!(float(at), grid.voxel(x, y, z), "({x}, {y}, {z})");
+        }
+    }
+
+    #[test]
+    fn the_xml_pins_mitsubas_pitfalls() {
+        let (_dir, scene, files) = exported();
+        let xml = std::fs::read_to_string(&files.scene).unwrap();
+        for expected in [
+            "<string name=\"fov_axis\" value=\"y\"/>",
+            "<float name=\"fov\" value=\"37\"/>",
+            "<rfilter type=\"box\"/>",
+            "<string name=\"component_format\" value=\"float32\"/>",
+            "<integrator type=\"volpath\">",
+            "<integer name=\"max_depth\" value=\"$max_depth\"/>",
+            "<string name=\"filter_type\" value=\"trilinear\"/>",
+            "<string name=\"filename\" value=\"peer.vol\"/>",
+            "<float name=\"cutoff_angle\" value=\"25\"/>",
+            "<float name=\"beam_width\" value=\"10\"/>",
+            "<rgb name=\"intensity\" value=\"3, 4, 5\"/>",
+            "<point name=\"position\" value=\"2, 0.5, 0.5\"/>",
+            "<bsdf type=\"null\"/>",
+            "<phase type=\"isotropic\"/>",
+        ] {
+            assert!(xml.contains(expected), "missing {expected} in\n{xml}");
+        }
+        let scale = format!(
+            "<float name=\"scale\" value=\"{}\"/>",
+            scene.medium().sigma_t_base()
+        );
+        assert!(xml.contains(&scale), "{xml}");
+    }
+
+    #[test]
+    fn emitting_media_are_refused_naming_the_key() {
+        let scene = test_util::scene(&format!(
+            "{}[sigma]\nemission = [1, 1, 1]\n[integrator]\nemission = true\n",
+            test_util::SMALL_SCENE
+        ));
+        let dir = tempfile::tempdir().unwrap();
+        let err = export_mitsuba(&scene, dir.path(), "x")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("integrator.emission"), "{err}");
+    }
+}
