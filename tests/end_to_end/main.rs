@@ -5,7 +5,8 @@
 //! * `faults` — runs killed at many moments, damaged cells, a full file system;
 //! * `claims` — the thesis's findings that the committed studies reproduce, on small grids;
 //! * `browser` — `report.html` in headless Chromium;
-//! * `slurm` — a real single-node Slurm cluster (CI or `VOLPHOT_SLURM_TEST=1`).
+//! * `slurm` — a real single-node Slurm cluster (CI or `VOLPHOT_SLURM_TEST=1`);
+//! * `peer` — Mitsuba 3 renders the same scene (CI or `VOLPHOT_PEER_TEST=1`).
 //!
 //! Tests that cannot run here (no real data, no Chromium, no Slurm) print `SKIPPED …` to
 //! stderr; under `CI=true` they fail instead.
@@ -14,5 +15,6 @@ mod browser;
 mod claims;
 mod faults;
 mod reliability;
+mod peer;
 mod runs;
 mod slurm;

@@ -333,12 +333,40 @@ pub(crate) struct BenchArgs {
     /// Run only these configurations (comma-separated; default: all).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub(crate) only: Vec<BenchConfig>,
-    /// Passes of the path tracer in the single-scattering efficiency comparison.
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(2..=100_000))]
-    pub(crate) reference_passes: u32,
+    /// Passes of the path tracer: in the efficiency comparison (default 16) and for the
+    /// converged reference of `--peer` (default 1024).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
+    pub(crate) reference_passes: Option<u32>,
+    /// Compare with a peer renderer instead: the scene exported, rendered by both at several
+    /// sample counts, errors against a converged reference versus CPU-seconds.
+    #[arg(long, value_enum)]
+    pub(crate) peer: Option<Peer>,
+    /// Python with Mitsuba 3 installed (default: $VOLPHOT_MITSUBA_PYTHON, else python3);
+    /// `scripts/peer-mitsuba.sh` makes one.
+    #[arg(long)]
+    pub(crate) python: Option<PathBuf>,
+    /// Samples per pixel of the peer comparison's renders (comma-separated).
+    #[arg(long, value_delimiter = ',', default_values_t = [4u32, 16, 64])]
+    pub(crate) peer_spp: Vec<u32>,
+    /// Seeds per setting of the peer comparison (the spread of their means is the noise).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(2..=64))]
+    pub(crate) seeds: u32,
+    /// Image size `WIDTHxHEIGHT` (overrides the scene's).
+    #[arg(long, value_parser = parse_resolution)]
+    pub(crate) resolution: Option<[u32; 2]>,
+    /// Keep the peer comparison's files here (default: a temporary folder).
+    #[arg(long)]
+    pub(crate) peer_dir: Option<PathBuf>,
     /// Write the measurements as JSON here.
     #[arg(long)]
     pub(crate) json: Option<PathBuf>,
+}
+
+/// A peer renderer `sweep bench --peer` compares with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum Peer {
+    /// Mitsuba 3 (`volpath`), through `scripts/peer_mitsuba.py`.
+    Mitsuba,
 }
 
 /// A configuration of `sweep bench`.

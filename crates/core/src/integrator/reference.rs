@@ -52,7 +52,12 @@ impl PixelStats {
     /// Adds the `n`-th sample (1-based).
     #[inline]
     fn add(&mut self, s: &PathSample, n: f32) {
-        let values = [s.single, s.multiple, s.emission, s.single + s.multiple + s.emission];
+        let values = [
+            s.single,
+            s.multiple,
+            s.emission,
+            s.single + s.multiple + s.emission,
+        ];
         for ((mean, m2), v) in self.mean.iter_mut().zip(&mut self.m2).zip(values) {
             let delta = v - *mean;
             *mean += delta / n;

@@ -76,7 +76,7 @@ struct BenchReport {
 }
 
 /// The headline scene: the foot preset, or the foot phantom at 256² with `--quick`.
-fn headline(args: &BenchArgs) -> PathBuf {
+pub(super) fn headline(args: &BenchArgs) -> PathBuf {
     if let Some(s) = &args.scene {
         return s.clone();
     }
@@ -139,6 +139,12 @@ pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
     if args.quick {
         params.camera.resolution = [256, 256];
     }
+    if let Some(resolution) = args.resolution {
+        params.camera.resolution = resolution;
+    }
+    if args.peer.is_some() {
+        return super::peer::run(args, &scene_path, &params);
+    }
     let pool = crate::render::thread_pool(args.threads)?;
     let single_pool = crate::render::thread_pool(Some(1))?;
     let base = scene_path.parent().unwrap_or(Path::new("."));
@@ -167,7 +173,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
     report.speedup_two_threads = speedup(&report.measurements);
     if configs.contains(&BenchConfig::Efficiency) {
         let s = scene.with_integrator(configure(BenchConfig::Efficiency, scene.integrator()))?;
-        let e = pool.install(|| efficiency(&s, args.reference_passes))?;
+        let e = pool.install(|| efficiency(&s, args.reference_passes.unwrap_or(16)))?;
         print_efficiency(&e);
         report.efficiency = Some(e);
     }

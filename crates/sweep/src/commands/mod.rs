@@ -3,6 +3,7 @@
 mod bench;
 mod datasets;
 mod export;
+mod peer;
 mod plan;
 mod render;
 mod report;

@@ -1,0 +1,481 @@
+//! `sweep bench --peer mitsuba`: the same scene rendered by volphot and by Mitsuba 3, errors
+//! against a converged reference versus CPU-seconds.
+//!
+//! The scene is exported ([`volphot::export_mitsuba`]) and rendered by Mitsuba's `volpath`
+//! (`scripts/peer_mitsuba.py`, `max_depth` 2 for single scattering and −1 for all), by
+//! volphot's path tracer and by its photon-mapping integrator, each at several settings
+//! and seeds. The converged reference is volphot's path tracer at many passes with a seed
+//! none of the compared renders uses; its per-pixel variance of the mean is known, so the
+//! mean squared error of an image against the *true* image is estimated as
+//! `mean((image − reference)² − Var(reference))` (see [`mse_against_noisy_reference`]).
+//! The agreement test compares Mitsuba's mean (over seeds, at the most samples) with the
+//! reference's mean in units of their combined standard error.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+use anyhow::{Context, Result, bail};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use volphot::{
+    Control, Film, Layer, ReferenceAccumulator, Scene, SceneParams, SearchPath, export_mitsuba,
+    process_cpu_seconds, read_pfm,
+};
+
+use crate::analyse::mse_against_noisy_reference;
+use crate::cli::BenchArgs;
+
+/// Which part of the light a comparison is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+enum Part {
+    /// Single scattering (Mitsuba `max_depth` 2; volphot's single layer).
+    Single,
+    /// Everything (Mitsuba `max_depth` −1; volphot's single + multiple layers).
+    All,
+}
+
+impl Part {
+    fn max_depth(self) -> i32 {
+        match self {
+            Part::Single => 2,
+            Part::All => -1,
+        }
+    }
+    fn name(self) -> &'static str {
+        match self {
+            Part::Single => "single",
+            Part::All => "all",
+        }
+    }
+}
+
+/// The converged reference of one part: image and per-pixel variance of its mean.
+struct Reference {
+    image: Vec<Vec3>,
+    variance: Vec<Vec3>,
+}
+
+impl Reference {
+    fn mean(&self) -> f64 {
+        mean_of(&self.image)
+    }
+    /// Standard error of the image mean (pixels independent).
+    fn standard_error(&self) -> f64 {
+        let n = self.variance.len() as f64;
+        (self.variance.iter().map(|v| mean3(*v)).sum::<f64>()).sqrt() / n
+    }
+}
+
+/// One row of the time-to-error table (means over seeds).
+#[derive(Debug, Serialize)]
+struct Row {
+    renderer: String,
+    part: Part,
+    setting: String,
+    seeds: usize,
+    cpu_s: f64,
+    rmse: f64,
+    /// RMSE² × CPU-s: lower is better, independent of the sample count for unbiased
+    /// renderers.
+    efficiency: f64,
+    mean_ratio: f64,
+}
+
+/// Mitsuba's mean against volphot's reference.
+#[derive(Debug, Serialize)]
+struct Agreement {
+    part: Part,
+    mitsuba_mean: f64,
+    mitsuba_standard_error: f64,
+    volphot_mean: f64,
+    volphot_standard_error: f64,
+    /// (Mitsuba − volphot) / combined standard error.
+    z: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct PeerReport {
+    scene: String,
+    resolution: [u32; 2],
+    reference_passes: u32,
+    mitsuba_variant: String,
+    mitsuba_version: String,
+    agreement: Vec<Agreement>,
+    rows: Vec<Row>,
+}
+
+/// One render reported by `peer_mitsuba.py`.
+#[derive(Debug, Deserialize)]
+struct MitsubaRun {
+    max_depth: i32,
+    spp: u32,
+    file: PathBuf,
+    cpu_s: f64,
+    variant: String,
+    mitsuba: String,
+}
+
+/// Runs the comparison.
+pub(crate) fn run(args: &BenchArgs, scene_path: &Path, params: &SceneParams) -> Result<ExitCode> {
+    let pool = crate::render::thread_pool(args.threads)?;
+    let temporary = std::env::temp_dir().join(format!("volphot-peer-{}", std::process::id()));
+    let dir = args.peer_dir.clone().unwrap_or_else(|| temporary.clone());
+    let base = scene_path.parent().unwrap_or(Path::new("."));
+    let scene = pool.install(|| Scene::from_params(params, base, &SearchPath::from_env()))?;
+    let name = scene_path
+        .file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let files = export_mitsuba(&scene, &dir, &name)?;
+    let passes = args.reference_passes.unwrap_or(1024);
+    let threads = pool.current_num_threads();
+    eprintln!(
+        "peer: Mitsuba renders of {} ({} spp × {} seeds)…",
+        files.scene.display(),
+        join(&args.peer_spp),
+        args.seeds
+    );
+    let mitsuba = run_mitsuba(args, &files.scene, &dir.join("mitsuba"), threads)?;
+    eprintln!("peer: volphot reference ({passes} passes) and renders…");
+    let report = pool.install(|| -> Result<PeerReport> {
+        let references = [Part::Single, Part::All].map(|part| reference(&scene, part, passes));
+        let [single, all] = references;
+        let references = [(Part::Single, single?), (Part::All, all?)];
+        let mut rows = Vec::new();
+        let mut agreement = Vec::new();
+        for (part, reference) in &references {
+            rows.extend(mitsuba_rows(&mitsuba, *part, reference, &args.peer_spp)?);
+            rows.extend(path_rows(
+                &scene,
+                *part,
+                reference,
+                &args.peer_spp,
+                args.seeds,
+            )?);
+            rows.extend(photon_rows(&scene, *part, reference, args.seeds)?);
+            agreement.push(agree(&mitsuba, *part, reference, &args.peer_spp)?);
+        }
+        let first = mitsuba.first().context("Mitsuba rendered nothing")?;
+        Ok(PeerReport {
+            scene: scene_path.display().to_string(),
+            resolution: params.camera.resolution,
+            reference_passes: passes,
+            mitsuba_variant: first.variant.clone(),
+            mitsuba_version: first.mitsuba.clone(),
+            agreement,
+            rows,
+        })
+    })?;
+    if args.peer_dir.is_none() {
+        let _ = std::fs::remove_dir_all(&temporary);
+    }
+    print_report(&report);
+    if let Some(path) = &args.json {
+        volphot::write_atomic(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn join(values: &[u32]) -> String {
+    values
+        .iter()
+        .map(u32::to_string)
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+fn mean3(v: Vec3) -> f64 {
+    (v.x as f64 + v.y as f64 + v.z as f64) / 3.0
+}
+
+fn mean_of(image: &[Vec3]) -> f64 {
+    image.iter().map(|v| mean3(*v)).sum::<f64>() / image.len() as f64
+}
+
+/// The scene for one part: single scattering only, or everything (no emission: Mitsuba's
+/// medium does not emit, and the export refuses emitting scenes).
+fn scene_for(scene: &Scene, part: Part, seed: u64) -> Result<Scene> {
+    let mut integrator = scene.integrator().clone();
+    integrator.multiple = part == Part::All;
+    integrator.seed = seed;
+    Ok(scene.with_integrator(integrator)?)
+}
+
+/// A part of a film: the single layer, or single + multiple.
+fn part_of(film: &Film, part: Part) -> Vec<Vec3> {
+    match part {
+        Part::Single => film.layer(Layer::Single).to_vec(),
+        Part::All => film.combine(&[Layer::Single, Layer::Multiple]),
+    }
+}
+
+/// The converged reference: volphot's path tracer with a seed no compared render uses.
+fn reference(scene: &Scene, part: Part, passes: u32) -> Result<Reference> {
+    let s = scene_for(scene, part, scene.integrator().seed.wrapping_add(1_000_003))?;
+    let camera = s.camera();
+    let mut acc = ReferenceAccumulator::new(camera.width() as usize, camera.height() as usize);
+    acc.add_passes(&s, passes, &Control::none())?;
+    let film = acc.film();
+    let variance = match part {
+        Part::Single => film
+            .variance(Layer::Single)
+            .context("reference variance")?
+            .to_vec(),
+        Part::All => acc.total_variance().context("reference total variance")?,
+    };
+    Ok(Reference {
+        image: part_of(&film, part),
+        variance,
+    })
+}
+
+/// Runs `peer_mitsuba.py` for both parts and every spp and seed.
+fn run_mitsuba(
+    args: &BenchArgs,
+    xml: &Path,
+    out: &Path,
+    threads: usize,
+) -> Result<Vec<MitsubaRun>> {
+    let python = args
+        .python
+        .clone()
+        .or_else(|| std::env::var_os("VOLPHOT_MITSUBA_PYTHON").map(PathBuf::from))
+        .unwrap_or_else(|| PathBuf::from("python3"));
+    let script = peer_script()?;
+    let output = Command::new(&python)
+        .arg(&script)
+        .arg(xml)
+        .arg("--out")
+        .arg(out)
+        .args(["--max-depth", "2,-1", "--spp", &join(&args.peer_spp)])
+        .args([
+            "--seeds",
+            &args.seeds.to_string(),
+            "--threads",
+            &threads.to_string(),
+        ])
+        .output()
+        .with_context(|| {
+            format!(
+                "starting {} (make one with scripts/peer-mitsuba.sh)",
+                python.display()
+            )
+        })?;
+    if !output.status.success() {
+        bail!(
+            "{} {} failed ({}): {}\n(is Mitsuba 3 installed for it? scripts/peer-mitsuba.sh makes a virtual environment with it)",
+            python.display(),
+            script.display(),
+            output.status,
+            String::from_utf8_lossy(&output.stderr).trim()
+        );
+    }
+    String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .filter(|l| l.starts_with('{'))
+        .map(|l| {
+            serde_json::from_str(l).with_context(|| format!("reading Mitsuba's report line {l}"))
+        })
+        .collect()
+}
+
+/// `scripts/peer_mitsuba.py` of this checkout.
+fn peer_script() -> Result<PathBuf> {
+    let candidates = [
+        PathBuf::from("scripts/peer_mitsuba.py"),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scripts/peer_mitsuba.py"),
+    ];
+    candidates
+        .into_iter()
+        .find(|p| p.is_file())
+        .context("scripts/peer_mitsuba.py not found (run from the volphot checkout)")
+}
+
+/// A row from several seeds' images and CPU-seconds.
+fn row(
+    renderer: &str,
+    part: Part,
+    setting: String,
+    reference: &Reference,
+    runs: &[(Vec<Vec3>, f64)],
+) -> Row {
+    let n = runs.len() as f64;
+    let mse = runs
+        .iter()
+        .map(|(image, _)| mse_against_noisy_reference(image, &reference.image, &reference.variance))
+        .sum::<f64>()
+        / n;
+    let cpu_s = runs.iter().map(|r| r.1).sum::<f64>() / n;
+    let mean = runs.iter().map(|(image, _)| mean_of(image)).sum::<f64>() / n;
+    Row {
+        renderer: renderer.into(),
+        part,
+        setting,
+        seeds: runs.len(),
+        cpu_s,
+        rmse: mse.max(0.0).sqrt(),
+        efficiency: mse.max(0.0) * cpu_s,
+        mean_ratio: mean / reference.mean(),
+    }
+}
+
+fn mitsuba_rows(
+    runs: &[MitsubaRun],
+    part: Part,
+    reference: &Reference,
+    spps: &[u32],
+) -> Result<Vec<Row>> {
+    let mut rows = Vec::new();
+    for &spp in spps {
+        let images = runs
+            .iter()
+            .filter(|r| r.max_depth == part.max_depth() && r.spp == spp)
+            .map(|r| Ok((read_pfm(&r.file)?.2, r.cpu_s)))
+            .collect::<Result<Vec<_>>>()?;
+        let variant = runs.first().map_or("", |r| r.variant.as_str());
+        rows.push(row(
+            &format!("mitsuba {variant}"),
+            part,
+            format!("{spp} spp"),
+            reference,
+            &images,
+        ));
+    }
+    Ok(rows)
+}
+
+/// CPU-seconds of `f`, all threads.
+fn cpu_timed<T>(f: impl FnOnce() -> Result<T>) -> Result<(T, f64)> {
+    let start = process_cpu_seconds().context("CPU time is not available here")?;
+    let value = f()?;
+    Ok((value, process_cpu_seconds().unwrap_or(start) - start))
+}
+
+fn path_rows(
+    scene: &Scene,
+    part: Part,
+    reference: &Reference,
+    spps: &[u32],
+    seeds: u32,
+) -> Result<Vec<Row>> {
+    let mut rows = Vec::new();
+    for &spp in spps {
+        let runs = (0..seeds as u64)
+            .map(|k| {
+                let s = scene_for(scene, part, scene.integrator().seed.wrapping_add(1 + k))?;
+                let (film, cpu) =
+                    cpu_timed(|| Ok(volphot::render_reference(&s, spp, &Control::none())?.0))?;
+                Ok((part_of(&film, part), cpu))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        rows.push(row(
+            "volphot path",
+            part,
+            format!("{spp} spp"),
+            reference,
+            &runs,
+        ));
+    }
+    Ok(rows)
+}
+
+/// The photon-mapping integrator at the scene's settings and with 4× the photons.
+fn photon_rows(scene: &Scene, part: Part, reference: &Reference, seeds: u32) -> Result<Vec<Row>> {
+    let base = scene.integrator().volume_photons;
+    let mut rows = Vec::new();
+    for (setting, photons) in [
+        ("scene's settings", base),
+        ("4× photons", base.saturating_mul(4)),
+    ] {
+        let runs = (0..seeds as u64)
+            .map(|k| {
+                let mut s = scene_for(scene, part, scene.integrator().seed.wrapping_add(1 + k))?;
+                let mut integrator = s.integrator().clone();
+                integrator.volume_photons = photons;
+                s = s.with_integrator(integrator)?;
+                let (out, cpu) = cpu_timed(|| Ok(volphot::render(&s, &Control::none())?))?;
+                Ok((part_of(&out.film, part), cpu))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let setting = format!("{setting} ({photons} photons)");
+        rows.push(row("volphot photon", part, setting, reference, &runs));
+        if part == Part::Single {
+            break; // single scattering does not use the photon map
+        }
+    }
+    Ok(rows)
+}
+
+/// Mitsuba's mean at the most samples (over seeds) against the reference's.
+fn agree(
+    runs: &[MitsubaRun],
+    part: Part,
+    reference: &Reference,
+    spps: &[u32],
+) -> Result<Agreement> {
+    let spp = *spps.iter().max().context("--peer-spp is empty")?;
+    let means = runs
+        .iter()
+        .filter(|r| r.max_depth == part.max_depth() && r.spp == spp)
+        .map(|r| Ok(mean_of(&read_pfm(&r.file)?.2)))
+        .collect::<Result<Vec<f64>>>()?;
+    if means.len() < 2 {
+        bail!(
+            "the agreement needs at least 2 Mitsuba seeds at {spp} spp, got {}",
+            means.len()
+        );
+    }
+    let n = means.len() as f64;
+    let mean = means.iter().sum::<f64>() / n;
+    let spread = (means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    let mitsuba_standard_error = spread / n.sqrt();
+    let volphot_standard_error = reference.standard_error();
+    let combined = mitsuba_standard_error.hypot(volphot_standard_error);
+    Ok(Agreement {
+        part,
+        mitsuba_mean: mean,
+        mitsuba_standard_error,
+        volphot_mean: reference.mean(),
+        volphot_standard_error,
+        z: (mean - reference.mean()) / combined.max(f64::MIN_POSITIVE),
+    })
+}
+
+fn print_report(r: &PeerReport) {
+    println!(
+        "{} at {}×{}, Mitsuba {} ({}), reference: volphot path tracer at {} passes",
+        r.scene,
+        r.resolution[0],
+        r.resolution[1],
+        r.mitsuba_version,
+        r.mitsuba_variant,
+        r.reference_passes
+    );
+    for a in &r.agreement {
+        println!(
+            "agreement, {}: Mitsuba mean {:.6} ± {:.6}, volphot {:.6} ± {:.6}, z = {:+.2}",
+            a.part.name(),
+            a.mitsuba_mean,
+            a.mitsuba_standard_error,
+            a.volphot_mean,
+            a.volphot_standard_error,
+            a.z
+        );
+    }
+    println!(
+        "{:<22} {:<6} {:<34} {:>8} {:>10} {:>12} {:>8}",
+        "renderer", "part", "setting", "CPU s", "RMSE", "RMSE²·CPU-s", "mean/ref"
+    );
+    for row in &r.rows {
+        println!(
+            "{:<22} {:<6} {:<34} {:>8.2} {:>10.3e} {:>12.3e} {:>8.4}",
+            row.renderer,
+            row.part.name(),
+            row.setting,
+            row.cpu_s,
+            row.rmse,
+            row.efficiency,
+            row.mean_ratio
+        );
+    }
+}
