@@ -1,9 +1,12 @@
 //! The volume photon map and its radiance estimate (thesis §5.2, eq. 11).
 //!
-//! `L(x, ω) ≈ Σ_{p ≤ n} p(x, ω_p, ω) · ΔΦ_p / (4/3 · π · r³)` over the `n = nused` nearest
+//! `L(x, ω) ≈ Σ_{p < n} p(x, ω_p, ω) · ΔΦ_p / (4/3 · π · r³)` over the `n = nused` nearest
 //! photons within `maxdist`. `r` is the radius of the sphere the estimate actually covers:
-//! the distance to the `n`-th photon when `n` were found, otherwise `maxdist` (the whole
-//! searched sphere holds fewer than `n` photons, so its volume is the honest denominator).
+//! the distance to the `n`-th photon when `n` were found — that photon only sets the radius
+//! and is not summed, which makes the estimate unbiased (eq. 11 sums all `n` and over-counts
+//! by `n/(n − 1)`: E[1/V_n] = λ/(n − 1)) — otherwise `maxdist`, with every photon inside
+//! summed (the whole searched sphere holds fewer than `n`, so its volume is the honest
+//! denominator).
 //!
 //! One k-NN query can serve several `(nused, maxdist)` pairs at once ([`GatherVariant`]):
 //! the neighbours come back sorted, so every smaller `nused` or radius is a prefix.
@@ -233,7 +236,12 @@ impl PhotonMap {
                 scratch.radii.push(0.0);
                 continue;
             }
-            let sum = neighbours.sum(self, n, v.gathered, phase, wo);
+            // The n-th photon only sets the radius: Σ_{i<n} ΔΦ_i / V(r_n) is unbiased, where
+            // Σ_{i≤n} over-counts by n/(n−1) (E[1/V_n] = λ/(n−1) for n photons of density
+            // λ). With fewer than nused inside maxdist every photon counts: count/V(maxdist)
+            // is unbiased too.
+            let radius_from_photon = n == v.nused as usize;
+            let sum = neighbours.sum(self, n, radius_from_photon, v.gathered, phase, wo);
             scratch.radii.push(r);
             *o = sum / (4.0 / 3.0 * std::f32::consts::PI * r * r * r);
         }
@@ -340,6 +348,46 @@ mod tests {
             shared[2].x,
             hits.len()
         );
+    }
+
+    /// On a uniform photon field of density λ the estimate is unbiased for any `nused`:
+    /// eq. 11 as the thesis writes it (all n photons over V(r_n)) gives λ·n/(n − 1), 1.25 at
+    /// nused 5.
+    #[test]
+    fn the_knn_estimate_is_unbiased_on_a_uniform_field() {
+        let (photons_per_map, maps) = (4000, 400);
+        for nused in [3u32, 5, 10] {
+            let mut sum = 0.0f64;
+            let mut rng = Rng::stream(11, Domain::Misc, nused as u64);
+            for m in 0..maps {
+                let map = uniform_cloud_seeded(photons_per_map, 1.0, 1000 + m);
+                // Interior points: the query sphere stays inside the cube.
+                let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.5 + 0.25;
+                sum += map.estimate(p, Vec3::X, nused, 0.2, Phase::ISOTROPIC).x as f64;
+            }
+            let expected = photons_per_map as f64 * crate::math::INV_4PI as f64;
+            let ratio = sum / maps as f64 / expected;
+            // Relative standard error of one estimate ≈ 1/sqrt(nused − 2), over 400 maps.
+            let tolerance = 3.0 / ((nused as f64 - 2.0).max(1.0) * maps as f64).sqrt();
+            assert!(
+                (ratio - 1.0).abs() < tolerance,
+                "nused {nused}: mean estimate / density = {ratio:.4} (±{tolerance:.4}); the biased form gives {:.3}",
+                nused as f64 / (nused as f64 - 1.0)
+            );
+        }
+    }
+
+    fn uniform_cloud_seeded(n: usize, power: f32, seed: u64) -> PhotonMap {
+        let mut rng = Rng::stream(seed, Domain::Misc, 0);
+        let photons = (0..n)
+            .map(|_| Photon {
+                position: Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()),
+                direction: Vec3::Z,
+                power: Vec3::splat(power),
+                sigma_t: 1.0,
+            })
+            .collect();
+        PhotonMap::new(photons, PhotonStats::default())
     }
 
     #[test]

@@ -166,10 +166,14 @@ impl Neighbours {
     }
 
     /// The fixed-point sum of the terms of `selected[..n]` (see [`FixedSum`]).
+    ///
+    /// With `without_farthest` the photon with the largest key among them (the one that
+    /// sets a k-NN radius) is left out: its term is subtracted, exactly, in fixed point.
     pub(super) fn sum(
         &mut self,
         map: &PhotonMap,
         n: usize,
+        without_farthest: bool,
         gathered: Gathered,
         phase: Phase,
         wo: Vec3,
@@ -181,6 +185,13 @@ impl Neighbours {
             let t = terms[slot as usize];
             for a in 0..3 {
                 sum[a] = sum[a].saturating_add(t[a]);
+            }
+        }
+        if without_farthest && let Some(&(_, slot)) = self.selected[..n].iter().max_by_key(|s| s.0)
+        {
+            let t = terms[slot as usize];
+            for a in 0..3 {
+                sum[a] = sum[a].saturating_sub(t[a]);
             }
         }
         FixedSum::value(sum, scale)

@@ -174,11 +174,11 @@ impl IntegratorParams {
                 "at least 1 photon when `multiple = true`",
             ));
         }
-        if !(1..=100_000).contains(&self.nused) {
+        if !(2..=100_000).contains(&self.nused) {
             return Err(Error::parameter(
                 "nused",
                 self.nused,
-                "an integer in [1, 100000]",
+                "an integer in [2, 100000] (the nused-th photon sets the radius and is not counted)",
             ));
         }
         if !(self.maxdist.is_finite() && self.maxdist > 0.0 && self.maxdist <= 10.0) {
