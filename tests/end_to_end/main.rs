@@ -14,7 +14,7 @@
 mod browser;
 mod claims;
 mod faults;
-mod reliability;
 mod peer;
+mod reliability;
 mod runs;
 mod slurm;

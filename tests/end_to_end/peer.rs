@@ -39,7 +39,10 @@ fn mitsuba_and_volphot_agree_in_mean() {
         assert!(z.abs() < 3.0, "Mitsuba and volphot disagree: {a}\n{stdout}");
         // The comparison has teeth: each side's noise is small against the mean.
         let mean = a["volphot_mean"].as_f64().unwrap();
-        assert!(a["mitsuba_standard_error"].as_f64().unwrap() < 0.02 * mean, "{a}");
+        assert!(
+            a["mitsuba_standard_error"].as_f64().unwrap() < 0.02 * mean,
+            "{a}"
+        );
     }
     let rows = report["rows"].as_array().unwrap();
     assert!(
