@@ -54,6 +54,15 @@ impl<'a> Control<'a> {
     }
 
     /// Reports that `rows` rows (or units) are finished.
+    /// The same time limit with another progress callback (a pass inside a longer render
+    /// reports its rows offset by the work before it).
+    pub(crate) fn with_progress<'b>(&self, progress: &'b (dyn Fn(u64) + Sync)) -> Control<'b> {
+        Control {
+            progress,
+            deadline: self.deadline,
+        }
+    }
+
     #[inline]
     pub(crate) fn report(&self, rows: u64) {
         (self.progress)(rows);

@@ -73,7 +73,8 @@ pub use error::{Error, Result, check_non_negative, check_positive, check_range};
 pub use film::{Film, Layer, mean_rgb, read_pfm, to_srgb8, write_pfm, write_png, write_png_rgb8};
 pub use integrator::{
     CACHE_TAU_MAX, CacheError, ErrorBound, MAX_VERTICES, MarchOutput, MarchStats, MsVariant,
-    ReferenceAccumulator, render_march, render_reference,
+    ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, next_radius, progress_rows,
+    render_march, render_march_beams, render_progressive, render_reference,
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
 pub use medium::{
@@ -83,19 +84,20 @@ pub use medium::{
     parse_pgm, sample_interaction_march, sample_interaction_thesis, write_pgm,
 };
 pub use photon::{
-    GatherScratch, GatherVariant, Gathered, MAX_INTERACTIONS, Photon, PhotonMap, PhotonStats,
-    TraceSettings, photons_per_light, trace,
+    BeamMap, BeamRadius, Crossing, GatherScratch, GatherVariant, Gathered, MAX_INTERACTIONS,
+    Photon, PhotonMap, PhotonStats, TraceSettings, photons_per_light, trace,
 };
 pub use render::{
     Provenance, RenderOutput, RenderRecord, SharedFilm, SharedRender, Timings, build_photon_map,
-    march_key, photon_map_key, record, render, render_shared,
+    march_key, photon_map_key, record, render, render_shared, shared_progress_units,
 };
 pub use scene::{
-    BoxParams, Camera, CameraParams, Estimate, FilmParams, Incident, IntegratorParams, Intensity,
-    Light, LightKind, LightParams, MAX_MARCH_STEPS, Method, MitsubaExport, NormalizeKind,
-    PhaseParams, PointLight, Quadrature, Scene, SceneParams, ShadowEstimator, SpotLight,
-    ThreePointParams, VolumeParams, build_medium, export_mitsuba, key_at, line_col, load_params,
-    load_volume, locate, locate_error, three_point, toml_error, validate_params,
+    BoxParams, Camera, CameraParams, DEFAULT_ALPHA, Estimate, FilmParams, Incident, InitialRadius,
+    IntegratorParams, Intensity, Light, LightKind, LightParams, MAX_MARCH_STEPS, Method,
+    MitsubaExport, MsEstimator, NormalizeKind, PhaseParams, PointLight, Quadrature, Scene,
+    SceneParams, ShadowEstimator, SpotLight, ThreePointParams, VolumeParams, build_medium,
+    export_mitsuba, key_at, line_col, load_params, load_volume, locate, locate_error, three_point,
+    toml_error, validate_params,
 };
 pub use util::{
     cache_dir, hostname, is_stale_temp, memory_budget_bytes, peak_memory_bytes,

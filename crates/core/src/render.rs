@@ -11,11 +11,15 @@ use serde::{Deserialize, Serialize};
 use crate::control::Control;
 use crate::error::Result;
 use crate::film::{Film, Layer};
-use crate::integrator::{CacheError, MarchStats, MsVariant, render_march, render_reference};
+use crate::integrator::{
+    CacheError, MarchStats, MsVariant, ProgressiveStats, progress_rows, render_march,
+    render_progressive, render_reference,
+};
 use crate::medium::{FreePath, SigmaReport};
 use crate::photon::{PhotonMap, PhotonStats, TraceSettings, trace};
 use crate::scene::{
-    Estimate, IntegratorParams, Method, Quadrature, Scene, SceneParams, ShadowEstimator,
+    Estimate, IntegratorParams, Method, MsEstimator, Quadrature, Scene, SceneParams,
+    ShadowEstimator,
 };
 use crate::util::peak_memory_bytes;
 use crate::volume::{NormalizationRecord, VolumeSource};
@@ -83,6 +87,9 @@ pub struct RenderRecord {
     /// What the caches were measured to err by, when the render used one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cache_error: Option<CacheError>,
+    /// What the iterations of a progressive render did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub progressive: Option<ProgressiveStats>,
     /// Reference samples per pixel (reference method).
     pub reference_spp: Option<u32>,
     /// Seconds per phase.
@@ -125,8 +132,17 @@ pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
     let s = scene.integrator();
     let mut timings = Timings::default();
     let mut cache_error = None;
-    let (film, photons, march, reference_spp) = match s.method {
-        Method::Photon => {
+    let mut progressive = None;
+    let (film, photons, march, reference_spp) = match (s.method, s.estimator) {
+        (Method::Photon, MsEstimator::Progressive | MsEstimator::Beam) if s.multiple => {
+            let out = render_progressive(scene, control)?;
+            timings.photon_tracing = out.stats.photon_seconds;
+            timings.tree_build = out.stats.tree_seconds;
+            timings.render = out.stats.march_seconds;
+            progressive = Some(out.stats);
+            (out.film, Some(out.photons), Some(out.march), None)
+        }
+        (Method::Photon, _) => {
             let map = if s.multiple {
                 let map = build_photon_map(scene, control)?;
                 timings.photon_tracing = map.stats().seconds;
@@ -142,7 +158,7 @@ pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
             cache_error = out.cache_errors.into_iter().next().flatten();
             (film, map.map(|m| m.stats().clone()), Some(out.stats), None)
         }
-        Method::Reference => {
+        (Method::Reference, _) => {
             let (film, seconds) = render_reference(scene, s.reference_spp, control)?;
             timings.render = seconds;
             (film, None, None, Some(s.reference_spp))
@@ -151,6 +167,7 @@ pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
     timings.total = start.elapsed().as_secs_f64();
     let mut record = record(scene, photons, march, reference_spp, timings);
     record.cache_error = cache_error;
+    record.progressive = progressive;
     Ok(RenderOutput { film, record })
 }
 
@@ -168,6 +185,7 @@ pub fn record(
         photons,
         march,
         cache_error: None,
+        progressive: None,
         reference_spp,
         timings,
         peak_memory_bytes: peak_memory_bytes(),
@@ -175,10 +193,61 @@ pub fn record(
     }
 }
 
+/// Renders each variant alone (estimators that do not share a march: progressive and beam).
+fn render_each(
+    scene: &Scene,
+    variants: &[IntegratorParams],
+    control: &Control<'_>,
+) -> Result<SharedRender> {
+    let mut films = Vec::with_capacity(variants.len());
+    let mut render_seconds = 0.0;
+    let rows = scene.camera().height();
+    let mut done = 0;
+    for integrator in variants {
+        // Progress continues across the variants (see [`shared_progress_units`]).
+        let progress = |r: u64| control.report(done + r);
+        let out = render(
+            &scene.with_integrator(integrator.clone())?,
+            &control.with_progress(&progress),
+        )?;
+        done += progress_rows(integrator, rows);
+        render_seconds += out.record.timings.render;
+        films.push(SharedFilm {
+            film: out.film,
+            photon_seconds: out.record.timings.photon_tracing,
+            tree_seconds: out.record.timings.tree_build,
+            map_shared_by: usize::from(out.record.photons.is_some()),
+            photons: out.record.photons,
+            cache_error: out.record.cache_error,
+        });
+    }
+    Ok(SharedRender {
+        films,
+        photon_maps: variants.iter().filter(|v| v.multiple).count(),
+        render_seconds,
+    })
+}
+
+/// Progress units (see [`Control`]) that [`render_shared`] reports for `variants` of an
+/// image `rows` high: one march, or each variant's own render in turn.
+pub fn shared_progress_units(variants: &[IntegratorParams], rows: u32) -> u64 {
+    match variants.first() {
+        Some(v) if v.method == Method::Photon && v.estimator != MsEstimator::Points => {
+            variants.iter().map(|v| progress_rows(v, rows)).sum()
+        }
+        _ => rows as u64,
+    }
+}
+
 /// The scene parameters that only change the multiple-scattering layer, reset: scenes with
 /// equal keys render from one march ([`render_shared`]).
 pub fn march_key(params: &SceneParams) -> String {
     let mut p = params.clone();
+    // Progressive and beam renders march per iteration or per photon set: each renders
+    // alone, so its time is its own.
+    if p.integrator.method == Method::Photon && p.integrator.estimator != MsEstimator::Points {
+        return serde_json::to_string(&p).expect("scene params serialise");
+    }
     p.integrator.volume_photons = 0;
     p.integrator.nused = 1;
     p.integrator.maxdist = 1.0;
@@ -266,6 +335,9 @@ pub fn render_shared(
             photon_maps: 0,
             render_seconds: out.record.timings.render,
         });
+    }
+    if scene.integrator().estimator != MsEstimator::Points {
+        return render_each(scene, variants, control);
     }
     // Photon maps, one per distinct photon key; `film_of[k]` is variant k's film in the march.
     let mut maps: Vec<(String, PhotonMap)> = Vec::new();

@@ -35,7 +35,10 @@ impl Marcher<'_> {
             self.add_single(wo, rng, acc);
         }
         if self.settings.multiple {
-            self.add_multiple(wo, acc);
+            match self.beams {
+                Some(beams) => self.add_beams(beams, ray, acc),
+                None => self.add_multiple(wo, acc),
+            }
         }
     }
 
@@ -49,6 +52,7 @@ impl Marcher<'_> {
         let s = self.settings;
         let u = rng.uniform();
         let mut eye_t = 1.0f32;
+        let mut tau = 0.0f32;
         self.medium.march(ray, t0, t1, s.stepsize, u, |t, w| {
             let x = ray.at(t);
             let sigma_t = self.medium.sigma_t_in_box(x);
@@ -60,7 +64,16 @@ impl Marcher<'_> {
                 Quadrature::Exact => (1.0 - segment_t) / sigma_t,
                 Quadrature::Riemann => w,
             } * eye_t;
-            acc.samples.push(RaySample { x, sigma_t, weight });
+            acc.samples.push(RaySample {
+                x,
+                sigma_t,
+                weight,
+                // The sample sits at fraction `u` of its segment (full steps and the tail).
+                t_start: t - u * w,
+                width: w,
+                tau_start: tau,
+            });
+            tau += sigma_t * w;
             if s.emission {
                 acc.emission += self.medium.emission(x) * weight;
             }

@@ -16,7 +16,7 @@ use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
 use crate::math::{Domain, Rng};
 use crate::medium::Medium;
-use crate::photon::{GatherScratch, PhotonMap};
+use crate::photon::{BeamMap, GatherScratch, PhotonMap};
 use crate::scene::{Camera, IntegratorParams, Light, Scene};
 
 /// Counters of one marching pass.
@@ -56,6 +56,8 @@ pub(super) struct Marcher<'a> {
     pub(super) settings: &'a IntegratorParams,
     pub(super) variants: &'a [MsVariant],
     pub(super) groups: Vec<MapGroup<'a>>,
+    /// The photons as spheres, when the beam estimate gives the multiple term.
+    pub(super) beams: Option<&'a BeamMap<'a>>,
     pub(super) shadow_caches: Option<Vec<TransmittanceCache>>,
     /// `−ln(termination)`: optical depth at which a marched shadow ray counts as blocked.
     pub(super) shadow_tau_max: f32,
@@ -75,6 +77,11 @@ pub(super) struct RaySample {
     pub(super) sigma_t: f32,
     /// The segment's quadrature weight times the eye transmittance before it.
     pub(super) weight: f32,
+    /// Where the sample's segment begins along the ray, its length, and the eye's optical
+    /// depth at its start (σt is constant over the segment in the march's model).
+    pub(super) t_start: f32,
+    pub(super) width: f32,
+    pub(super) tau_start: f32,
 }
 
 /// Radiance accumulated for one pixel, plus scratch space and counters of its row.
@@ -92,6 +99,8 @@ pub(super) struct Accumulator {
     /// The current eye ray's samples, and per-sample values filled along it.
     pub(super) samples: Vec<RaySample>,
     pub(super) tau: Vec<f32>,
+    /// The traversal stack of the beam estimate.
+    pub(super) stack: Vec<u32>,
 }
 
 impl Accumulator {
@@ -107,6 +116,7 @@ impl Accumulator {
             counters: RowCounters::default(),
             samples: Vec::new(),
             tau: Vec::new(),
+            stack: Vec::new(),
         }
     }
 
@@ -193,7 +203,6 @@ pub fn render_march(
     variants: &[MsVariant],
     control: &Control<'_>,
 ) -> Result<MarchOutput> {
-    let start = Instant::now();
     let settings = scene.integrator();
     let medium = scene.medium();
     let own = [MsVariant {
@@ -216,8 +225,40 @@ pub fn render_march(
             "0 when phase.g != 0 (the cached estimate is only view-independent for isotropic scattering)",
         ));
     }
+    let groups = group_by_map(variants, maps, settings, medium.bounds())?;
+    run_march(scene, variants, groups, None, control)
+}
+
+/// Renders a scene with the ray-marching integrator, the multiple-scattering term from the
+/// beam radiance estimate over `beams` ([`super::beam`]) instead of point gathers.
+pub fn render_march_beams(
+    scene: &Scene,
+    beams: &BeamMap<'_>,
+    control: &Control<'_>,
+) -> Result<MarchOutput> {
+    let settings = scene.integrator();
+    let own = [MsVariant {
+        map: 0,
+        nused: settings.nused,
+        maxdist: settings.maxdist,
+        estimate: settings.estimate,
+    }];
+    let variants: &[MsVariant] = if settings.multiple { &own } else { &[] };
+    run_march(scene, variants, Vec::new(), Some(beams), control)
+}
+
+/// The pass itself: rows in parallel, then the films and counters.
+fn run_march<'a>(
+    scene: &'a Scene,
+    variants: &'a [MsVariant],
+    groups: Vec<MapGroup<'a>>,
+    beams: Option<&'a BeamMap<'a>>,
+    control: &Control<'_>,
+) -> Result<MarchOutput> {
+    let start = Instant::now();
+    let settings = scene.integrator();
+    let medium = scene.medium();
     let bounds = medium.bounds();
-    let groups = group_by_map(variants, maps, settings, bounds)?;
     let max_group = groups.iter().map(|g| g.gather.len()).max().unwrap_or(0);
     let marcher = Marcher {
         medium,
@@ -225,6 +266,7 @@ pub fn render_march(
         settings,
         variants,
         groups,
+        beams,
         shadow_tau_max: if settings.termination > 0.0 {
             -settings.termination.ln()
         } else {

@@ -26,15 +26,20 @@
 //! caches are off by default; their error against the uncached path is measured in tests.
 
 mod adaptive;
+mod beam;
 mod cache;
 mod cache_error;
 mod eye_ray;
 mod gather;
 mod march;
+mod progressive;
 mod reference;
 
 pub use cache::CACHE_TAU_MAX;
 pub use cache_error::{CacheError, ErrorBound};
 pub use gather::MsVariant;
-pub use march::{MarchOutput, MarchStats, render_march};
+pub use march::{MarchOutput, MarchStats, render_march, render_march_beams};
+pub use progressive::{
+    ProgressiveOutput, ProgressiveStats, next_radius, progress_rows, render_progressive,
+};
 pub use reference::{MAX_VERTICES, ReferenceAccumulator, render_reference};

@@ -106,6 +106,9 @@ impl Neighbours {
         }
         for attempt in first..3 {
             match attempt {
+                // A range query (k at least the photon count): every photon within a
+                // ball a little wider than `maxdist`.
+                1 if k >= map.len() => self.candidates.query_ball(map, p, maxdist * WIDE_RADIUS),
                 1 => self.candidates.query_wide(map, p, k, maxdist),
                 2 => self.candidates.query_ball(map, p, reach * (1.0 + 1e-3)),
                 _ => {}
@@ -387,6 +390,23 @@ mod tests {
             reused > 6000,
             "only {reused} of 12000 gathers reused candidates"
         );
+    }
+
+    #[test]
+    fn range_queries_gather_every_photon_within_the_radius() {
+        let map = uniform_cloud(5000);
+        let mut neighbours = Neighbours::default();
+        for (i, p) in [
+            Vec3::splat(0.5),
+            Vec3::new(0.51, 0.5, 0.5),
+            Vec3::splat(0.02),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let got = gathered(&mut neighbours, &map, p, usize::MAX, 0.1);
+            assert_eq!(got, brute_gather(&map, p, usize::MAX, 0.1), "point {i}");
+        }
     }
 
     #[test]

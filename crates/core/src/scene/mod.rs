@@ -55,7 +55,10 @@ pub use params::{
     BoxParams, NormalizeKind, PhaseParams, SceneParams, VolumeParams, build_medium, load_params,
     load_volume, validate_params,
 };
-pub use settings::{Estimate, FilmParams, IntegratorParams, Method, Quadrature, ShadowEstimator};
+pub use settings::{
+    DEFAULT_ALPHA, Estimate, FilmParams, InitialRadius, IntegratorParams, Method, MsEstimator,
+    Quadrature, ShadowEstimator,
+};
 
 use crate::error::Result;
 use crate::medium::Medium;

@@ -19,12 +19,20 @@
 //! | `spp` | 1 | one jittered eye ray per pixel, as the thesis |
 //! | `reference_spp` | 64 | reference path tracer samples per pixel |
 //! | `seed` | 1 | |
+//! | `estimator` | `points` | the thesis's k-NN point estimate; `progressive` and `beam` are consistent / stepsize-free alternatives |
+//! | `alpha` | 4/7 | radius shrink per iteration: `((i+α)/(i+1))^{1/3}` for points (3-D kernel), `^{1/2}` for beams (a 2-D kernel across the ray) |
+//! | `iterations`, `photons_per_iteration`, `time_budget` | 16, 0 (= `volume_photons`), 0 (none) | progressive and beam: independent photon maps averaged (beam with 1: the plain beam estimate) |
+//! | `initial_radius` | `nused` | progressive: median `nused`-th-neighbour distance of the first map; beam: each photon's own `nused`-th-neighbour distance (or `maxdist` for both) |
 //! | `film.exposure` | 0 | stops applied before sRGB encoding |
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result, check_range};
 use crate::medium::FreePath;
+
+/// The progressive radius parameter α: 4/7 balances the variance (∝ N^−α) and the squared
+/// bias (∝ N^−4(1−α)/3) of a 3-D kernel on a smooth field, the MSE then falling as N^−4/7.
+pub const DEFAULT_ALPHA: f32 = 4.0 / 7.0;
 
 /// How shadow-ray transmittance to a light is estimated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -72,6 +80,34 @@ pub enum Estimate {
     /// `Σ p·ΔΦ/(4/3 π r³)` exactly as eq. 11 ("σs cancels"): too bright by `1/Λ` and biased
     /// at density edges.
     Thesis,
+}
+
+/// How the multiple-scattering term is estimated from photons.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MsEstimator {
+    /// The thesis's point estimate: `nused` nearest photons at every marching sample.
+    Points,
+    /// Progressive photon mapping (Knaus & Zwicker 2011, in 3-D): `iterations` independent
+    /// photon maps, fixed-radius gathers whose radius shrinks by `((i + α)/(i + 1))^{1/3}`
+    /// per iteration, the image their running mean: consistent — it converges to the
+    /// unbiased solution.
+    Progressive,
+    /// The beam radiance estimate (Jarosz, Zwicker & Jensen 2008) for heterogeneous media:
+    /// every photon whose sphere an eye ray crosses, weighted by the exact eye
+    /// transmittance over its chord; no `stepsize` and no k-NN query per sample.
+    Beam,
+}
+
+/// Where the progressive estimate's first radius comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum InitialRadius {
+    /// `maxdist`.
+    Maxdist,
+    /// The median distance from a photon of the first map to its `nused`-th neighbour
+    /// (at most `maxdist`): the radius the point estimate would typically use.
+    Nused,
 }
 
 /// Which renderer produces the image.
@@ -129,6 +165,18 @@ pub struct IntegratorParams {
     pub reference_spp: u32,
     /// Random seed.
     pub seed: u64,
+    /// How multiple scattering is estimated from photons.
+    pub estimator: MsEstimator,
+    /// Progressive: the radius shrink parameter α in (0, 1).
+    pub alpha: f32,
+    /// Progressive: iterations (each a fresh photon map).
+    pub iterations: u32,
+    /// Progressive: photons per iteration (0: `volume_photons`).
+    pub photons_per_iteration: u64,
+    /// Progressive: stop after the iteration that passes this many seconds (0: no limit).
+    pub time_budget: f32,
+    /// Progressive: where the first radius comes from.
+    pub initial_radius: InitialRadius,
 }
 
 impl Default for IntegratorParams {
@@ -153,11 +201,36 @@ impl Default for IntegratorParams {
             spp: 1,
             reference_spp: 64,
             seed: 1,
+            estimator: MsEstimator::Points,
+            alpha: DEFAULT_ALPHA,
+            iterations: 16,
+            photons_per_iteration: 0,
+            time_budget: 0.0,
+            initial_radius: InitialRadius::Nused,
         }
     }
 }
 
 impl IntegratorParams {
+    /// What the beam estimate cannot combine with.
+    fn validate_beam(&self) -> Result<()> {
+        if matches!(self.estimate, Estimate::Albedo | Estimate::Thesis) {
+            return Err(Error::parameter(
+                "estimate",
+                format!("{:?}", self.estimate).to_lowercase(),
+                "`masked` or `fluence` with estimator = \"beam\" (the beam estimate integrates σs·T exactly along each chord, which needs the fluence form)",
+            ));
+        }
+        if self.ms_cache > 0 {
+            return Err(Error::parameter(
+                "ms_cache",
+                self.ms_cache,
+                "0 with estimator = \"beam\" (the beam estimate has no per-sample gathers to cache)",
+            ));
+        }
+        Ok(())
+    }
+
     /// Validates ranges; errors name the key (without the `integrator.` prefix).
     pub fn validate(&self) -> Result<()> {
         if self.volume_photons > 100_000_000 {
@@ -223,6 +296,31 @@ impl IntegratorParams {
                 self.reference_spp,
                 "an integer in [1, 1048576]",
             ));
+        }
+        if !(self.alpha > 0.0 && self.alpha < 1.0) {
+            return Err(Error::parameter(
+                "alpha",
+                self.alpha,
+                "a number in (0, 1): α = 1 never shrinks the radius, α = 0 never averages the noise away",
+            ));
+        }
+        if !(1..=100_000).contains(&self.iterations) {
+            return Err(Error::parameter(
+                "iterations",
+                self.iterations,
+                "an integer in [1, 100000]",
+            ));
+        }
+        if self.photons_per_iteration > 100_000_000 {
+            return Err(Error::parameter(
+                "photons_per_iteration",
+                self.photons_per_iteration,
+                "0 (use volume_photons) or at most 100 000 000 photons",
+            ));
+        }
+        check_range("time_budget", self.time_budget as f64, 0.0, 1e7)?;
+        if self.estimator == MsEstimator::Beam {
+            self.validate_beam()?;
         }
         if !(self.single || self.multiple || self.emission) {
             return Err(Error::parameter(

@@ -40,7 +40,12 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode> {
             )
         })?;
         let multi = crate::progress::multi(args.quiet);
-        let bar = crate::progress::bar(&multi, scene.camera().height() as u64, "render", "rows");
+        let bar = crate::progress::bar(
+            &multi,
+            volphot::progress_rows(scene.integrator(), scene.camera().height()),
+            "render",
+            "rows",
+        );
         let progress = |rows| bar.set_position(rows);
         let out = volphot::render(&scene, &volphot::Control::new(&progress))?;
         bar.finish_and_clear();

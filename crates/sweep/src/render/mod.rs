@@ -362,10 +362,14 @@ fn render_groups(
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<GroupOutcome>> = Mutex::new(Vec::new());
     let render_one = |group: &[Job]| -> GroupOutcome {
-        let rows = group[0].spec.params.camera.resolution[1] as u64;
+        let integrators: Vec<_> = group
+            .iter()
+            .map(|j| j.spec.params.integrator.clone())
+            .collect();
+        let rows = group[0].spec.params.camera.resolution[1];
         let bar = crate::progress::bar(
             multi,
-            rows,
+            volphot::shared_progress_units(&integrators, rows),
             &format!("cell {}", group[0].spec.index),
             "rows",
         );

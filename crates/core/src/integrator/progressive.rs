@@ -1,0 +1,276 @@
+//! Progressive volume photon mapping (Knaus & Zwicker 2011, "probabilistic PPM", in 3-D),
+//! and the beam estimate over independent photon maps (progressive beams).
+//!
+//! Iteration `i` traces a fresh, independent photon map of `M` photons and gathers with a
+//! fixed radius `r_i` (a range query: every photon within `r_i`, no `nused`); the image is
+//! the running mean of the iterations. The radius shrinks as
+//!
+//! `r_{i+1} = r_i · ((i + α)/(i + 1))^{1/3}`
+//!
+//! — the cube root because the kernel is 3-D: each iteration's variance ∝ 1/(M·r³) then
+//! grows by `(i + 1)/(i + α)`, so the mean's variance falls as N^−α while the bias (∝ r²)
+//! falls as N^−2(1−α)/3; with α in (0, 1) both vanish and the estimate converges to the
+//! unbiased solution. Only one iteration's photons are held at a time. The single
+//! (and emission) layers come from the first iteration's march; later marches add only
+//! the multiple-scattering term, at the same eye samples (each pixel's random stream is
+//! the same in every iteration).
+//!
+//! The beam estimate ([`super::beam`]) runs through the same loop: its photons' own radii
+//! shrink by one factor per iteration, `((i + α)/(i + 1))^{1/2}` (its kernel is a disc
+//! across the ray), and with `iterations = 1` it is the plain beam estimate.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::beam::{beam_masked, beam_radius};
+use super::gather::MsVariant;
+use super::march::{MarchStats, render_march, render_march_beams};
+use crate::control::Control;
+use crate::error::Result;
+use crate::film::{Film, Layer};
+use crate::photon::{BeamMap, PhotonMap, PhotonStats, TraceSettings, trace};
+use crate::scene::{InitialRadius, IntegratorParams, Method, MsEstimator, Scene};
+
+/// What a progressive render did.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ProgressiveStats {
+    /// Iterations completed (fewer than asked when the time budget ran out).
+    pub iterations: u32,
+    /// Photons per iteration.
+    pub photons_per_iteration: u64,
+    /// The gather radius of each iteration.
+    pub radii: Vec<f32>,
+    /// Photons stored per iteration.
+    pub stored: Vec<u64>,
+    /// The power the stored photons of each iteration carry (W, mean of RGB): the same
+    /// in expectation every iteration.
+    #[serde(default)]
+    pub stored_power: Vec<f64>,
+    /// Seconds spent tracing photons, all iterations.
+    pub photon_seconds: f64,
+    /// Seconds spent building search structures (kd-trees, beam hierarchies), all
+    /// iterations.
+    #[serde(default)]
+    pub tree_seconds: f64,
+    /// Seconds spent marching, all iterations.
+    pub march_seconds: f64,
+}
+
+/// The result of [`render_progressive`].
+#[derive(Debug, Clone)]
+pub struct ProgressiveOutput {
+    /// The image: single (and emission) layers of the first march, the mean multiple layer.
+    pub film: Film,
+    /// Counters of the first march.
+    pub march: MarchStats,
+    /// Statistics of the first photon map.
+    pub photons: PhotonStats,
+    /// What the iterations did.
+    pub stats: ProgressiveStats,
+}
+
+/// The radius of iteration `i + 1` from that of iteration `i` (1-based): the variance of
+/// a kernel over `d` dimensions grows as `r^−d`, so `r^d` shrinks by `(i + α)/(i + 1)` —
+/// `d = 3` for the point estimate's ball, `d = 2` for the beam estimate (its kernel,
+/// integrated along the ray, is a disc across it).
+pub fn next_radius(radius: f32, i: u32, alpha: f32, estimator: MsEstimator) -> f32 {
+    let ratio = (i as f32 + alpha) / (i as f32 + 1.0);
+    match estimator {
+        MsEstimator::Beam => radius * ratio.sqrt(),
+        MsEstimator::Points | MsEstimator::Progressive => radius * ratio.cbrt(),
+    }
+}
+
+/// Progress units of a render: image rows per march, times the iterations.
+pub fn progress_rows(settings: &IntegratorParams, rows: u32) -> u64 {
+    let iterative = matches!(
+        settings.estimator,
+        MsEstimator::Progressive | MsEstimator::Beam
+    );
+    if iterative && settings.multiple && settings.method == Method::Photon {
+        rows as u64 * settings.iterations as u64
+    } else {
+        rows as u64
+    }
+}
+
+/// Renders `scene` progressively (see the module docs): the `progressive` estimator, or
+/// the `beam` estimate over `iterations` photon maps.
+pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<ProgressiveOutput> {
+    let start = Instant::now();
+    let s = scene.integrator().clone();
+    let photons = if s.photons_per_iteration > 0 {
+        s.photons_per_iteration
+    } else {
+        s.volume_photons
+    };
+    let rows = scene.camera().height() as u64;
+    let mut stats = ProgressiveStats {
+        photons_per_iteration: photons,
+        ..Default::default()
+    };
+    let mut film: Option<Film> = None;
+    let (mut first_march, mut first_photons) = (MarchStats::default(), PhotonStats::default());
+    let mut multiple_sum: Vec<Vec3> = Vec::new();
+    // The point estimate's radius, or the beams' scale of their own radii.
+    let mut radius = match s.estimator {
+        MsEstimator::Beam => 1.0,
+        _ => s.maxdist,
+    };
+    for i in 1..=s.iterations {
+        let map = trace_iteration(scene, &s, i, photons, control)?;
+        stats.photon_seconds += map.stats().seconds;
+        stats.tree_seconds += map.build_seconds();
+        if i == 1 && s.initial_radius == InitialRadius::Nused && s.estimator != MsEstimator::Beam {
+            radius = median_nused_distance(&map, s.nused, s.maxdist);
+        }
+        let progress = |r: u64| control.report((i as u64 - 1) * rows + r);
+        let iteration_control = control.with_progress(&progress);
+        let (iteration_film, march, used_radius) =
+            march_iteration(scene, &s, i, &map, radius, &iteration_control)?;
+        stats.march_seconds += march.seconds;
+        stats.radii.push(used_radius);
+        stats.stored.push(map.stats().stored);
+        stats.stored_power.push(stored_power(&map));
+        accumulate(&mut multiple_sum, iteration_film.layer(Layer::Multiple));
+        if i == 1 {
+            first_march = march;
+            first_photons = map.stats().clone();
+            film = Some(iteration_film);
+        }
+        stats.iterations = i;
+        radius = next_radius(radius, i, s.alpha, s.estimator);
+        if s.time_budget > 0.0 && start.elapsed().as_secs_f64() >= s.time_budget as f64 {
+            break;
+        }
+    }
+    let mut film = film.expect("at least one iteration");
+    let n = stats.iterations as f32;
+    film.set_layer(
+        Layer::Multiple,
+        multiple_sum.iter().map(|v| *v / n).collect(),
+    );
+    Ok(ProgressiveOutput {
+        film,
+        march: first_march,
+        photons: first_photons,
+        stats,
+    })
+}
+
+/// The photon map of iteration `i`: its own seed, so iterations are independent.
+fn trace_iteration(
+    scene: &Scene,
+    s: &IntegratorParams,
+    i: u32,
+    photons: u64,
+    control: &Control<'_>,
+) -> Result<PhotonMap> {
+    let settings = TraceSettings {
+        photons,
+        free_path: s.free_path,
+        stepsize: s.stepsize,
+        seed: s.seed ^ ((i as u64) << 40),
+    };
+    let (photons, stats) = trace(scene.medium(), scene.lights(), &settings, control)?;
+    Ok(PhotonMap::new(photons, stats))
+}
+
+/// One iteration's march: everything in the first, the multiple term alone afterwards;
+/// returns the film, the counters and the (mean) gather radius used.
+fn march_iteration(
+    scene: &Scene,
+    s: &IntegratorParams,
+    i: u32,
+    map: &PhotonMap,
+    radius: f32,
+    control: &Control<'_>,
+) -> Result<(Film, MarchStats, f32)> {
+    let mut settings = s.clone();
+    if i > 1 {
+        settings.single = false;
+        settings.emission = false;
+    }
+    let scene = scene.with_integrator(settings)?;
+    if s.estimator == MsEstimator::Beam {
+        let start = Instant::now();
+        let beams = BeamMap::new(map, beam_radius(s, radius), scene.medium(), beam_masked(s));
+        let build_seconds = start.elapsed().as_secs_f64();
+        let mut out = render_march_beams(&scene, &beams, control)?;
+        // The hierarchy is built for this march alone: its time is the march's.
+        out.stats.seconds += build_seconds;
+        return Ok((out.films.swap_remove(0), out.stats, beams.mean_radius()));
+    }
+    let variant = MsVariant {
+        map: 0,
+        nused: u32::MAX, // a range query: every photon within the radius
+        maxdist: radius,
+        estimate: s.estimate,
+    };
+    let mut out = render_march(&scene, &[map], &[variant], control)?;
+    Ok((out.films.swap_remove(0), out.stats, radius))
+}
+
+/// The median over (up to 1000 of) the map's photons of the distance to their `nused`-th
+/// neighbour, at most `maxdist`.
+fn median_nused_distance(map: &PhotonMap, nused: u32, maxdist: f32) -> f32 {
+    let photons = map.photons();
+    if photons.is_empty() {
+        return maxdist;
+    }
+    let step = photons.len().div_ceil(1000);
+    let mut distances: Vec<f32> = photons
+        .iter()
+        .step_by(step)
+        .map(|p| {
+            let hits = map.gather(p.position, nused as usize, maxdist);
+            if hits.len() == nused as usize {
+                hits.last().map_or(maxdist, |h| h.0.sqrt())
+            } else {
+                maxdist
+            }
+        })
+        .collect();
+    distances.sort_by(f32::total_cmp);
+    distances[distances.len() / 2].max(f32::MIN_POSITIVE)
+}
+
+/// Σ ΔΦ over a map's photons, mean of RGB.
+fn stored_power(map: &PhotonMap) -> f64 {
+    let sum: f64 = map
+        .photons()
+        .iter()
+        .map(|p| (p.power.x as f64 + p.power.y as f64 + p.power.z as f64) / 3.0)
+        .sum();
+    sum
+}
+
+fn accumulate(sum: &mut Vec<Vec3>, layer: &[Vec3]) {
+    if sum.is_empty() {
+        sum.resize(layer.len(), Vec3::ZERO);
+    }
+    for (s, v) in sum.iter_mut().zip(layer) {
+        *s += *v;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn radii_follow_the_closed_form_schedule() {
+        // r_N³ / r_1³ = Γ(N + α) / (Γ(1 + α) Γ(N + 1)) ~ N^(α−1) / Γ(1 + α).
+        let alpha = 0.5f32;
+        let mut r = 1.0f32;
+        for i in 1..1000 {
+            r = next_radius(r, i, alpha, MsEstimator::Progressive);
+        }
+        let n = 1000f64;
+        let gamma_1_alpha = 0.886_226_925_452_758f64; // Γ(1.5)
+        let asymptotic = n.powf(alpha as f64 - 1.0) / gamma_1_alpha;
+        assert!(((r as f64).powi(3) / asymptotic - 1.0).abs() < 0.01, "{r}");
+    }
+}

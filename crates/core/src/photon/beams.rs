@@ -1,0 +1,345 @@
+//! Photons as spheres for the beam radiance estimate (Jarosz, Zwicker & Jensen 2008): each
+//! photon gets a radius — fixed, or the distance to its `k`-th nearest photon (the
+//! "sample-point" kernel, measured at the photon rather than at the query) — and the
+//! spheres go into a bounding-volume hierarchy that an eye ray walks once to find every
+//! photon whose sphere it crosses.
+
+use std::num::NonZeroUsize;
+
+use glam::Vec3;
+use kiddo::SquaredEuclidean;
+use rayon::prelude::*;
+
+use super::map::{Gathered, PhotonMap};
+use crate::math::Ray;
+use crate::medium::{Medium, Phase};
+
+/// How each photon's sphere radius is chosen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BeamRadius {
+    /// Every photon the same radius.
+    Fixed(f32),
+    /// The distance to the photon's `k`-th nearest photon (itself counted), at most `max`,
+    /// times `scale` (progressive beams shrink every radius by one factor).
+    Nearest {
+        /// Neighbours that set the radius.
+        k: u32,
+        /// The largest radius.
+        max: f32,
+        /// The factor applied to every radius.
+        scale: f32,
+    },
+}
+
+/// Photons leaves hold at most this many spheres.
+const LEAF_SIZE: usize = 4;
+
+/// One node of the hierarchy: a box, and either two children or a range of spheres.
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    min: Vec3,
+    max: Vec3,
+    /// Leaf: first sphere; inner: index of the second child (the first follows the node).
+    start: u32,
+    /// Leaf: sphere count; inner: 0.
+    count: u32,
+}
+
+/// A photon's sphere, as the hierarchy stores it.
+#[derive(Debug, Clone, Copy)]
+struct Sphere {
+    center: Vec3,
+    radius2: f32,
+    /// `1 / (V·share)`: the kernel's normalisation (`share` the medium's part of the sphere
+    /// for the masked form, else 1).
+    inv_volume: f32,
+    photon: u32,
+}
+
+/// A photon map's photons as spheres in a bounding-volume hierarchy.
+#[derive(Debug)]
+pub struct BeamMap<'a> {
+    map: &'a PhotonMap,
+    spheres: Vec<Sphere>,
+    nodes: Vec<Node>,
+    mean_radius: f32,
+}
+
+/// One photon whose sphere an eye ray crosses.
+#[derive(Debug, Clone, Copy)]
+pub struct Crossing {
+    /// Where the chord through the sphere begins and ends along the ray.
+    pub t_enter: f32,
+    /// See `t_enter`.
+    pub t_exit: f32,
+    /// The photon's term (`p·ΔΦ/σt` for fluence, `p·ΔΦ` for flux) over its kernel volume.
+    pub density: Vec3,
+}
+
+impl<'a> BeamMap<'a> {
+    /// The spheres of `map`'s photons; with `masked`, each kernel is normalised by the
+    /// medium's share of its sphere (photons cannot sit in empty space).
+    pub fn new(map: &'a PhotonMap, radius: BeamRadius, medium: &Medium, masked: bool) -> Self {
+        let radii = photon_radii(map, radius);
+        let mut spheres: Vec<Sphere> = map
+            .photons()
+            .par_iter()
+            .zip(&radii)
+            .enumerate()
+            .filter(|(_, (_, r))| **r > 0.0)
+            .map(|(i, (photon, &r))| {
+                let share = if masked {
+                    medium.occupancy(photon.position, r)
+                } else {
+                    1.0
+                };
+                let volume = 4.0 / 3.0 * std::f32::consts::PI * r * r * r * share;
+                Sphere {
+                    center: photon.position,
+                    radius2: r * r,
+                    inv_volume: if volume > 0.0 { 1.0 / volume } else { 0.0 },
+                    photon: i as u32,
+                }
+            })
+            .collect();
+        let mean_radius = if radii.is_empty() {
+            0.0
+        } else {
+            (radii.iter().map(|&r| r as f64).sum::<f64>() / radii.len() as f64) as f32
+        };
+        let mut nodes = Vec::with_capacity(2 * spheres.len() / LEAF_SIZE + 1);
+        if !spheres.is_empty() {
+            let n = spheres.len();
+            build(&mut spheres, 0, n, &mut nodes);
+        }
+        BeamMap {
+            map,
+            spheres,
+            nodes,
+            mean_radius,
+        }
+    }
+
+    /// The mean sphere radius.
+    pub fn mean_radius(&self) -> f32 {
+        self.mean_radius
+    }
+
+    /// Calls `visit` for every photon whose sphere the ray crosses within `span`
+    /// (`[t_min, t_max]`), in a fixed order (the hierarchy's), with its chord clipped to that
+    /// interval and its term towards `wo` (the direction back along the ray).
+    pub fn crossings(
+        &self,
+        ray: &Ray,
+        span: (f32, f32),
+        gathered: Gathered,
+        phase: Phase,
+        stack: &mut Vec<u32>,
+        mut visit: impl FnMut(Crossing),
+    ) {
+        let (t_min, t_max) = span;
+        if self.nodes.is_empty() || t_max <= t_min {
+            return;
+        }
+        let wo = -ray.direction;
+        let inv_dir = ray.direction.recip();
+        stack.clear();
+        stack.push(0);
+        while let Some(index) = stack.pop() {
+            let node = self.nodes[index as usize];
+            if !slab_hit(node.min, node.max, ray.origin, inv_dir, t_min, t_max) {
+                continue;
+            }
+            if node.count == 0 {
+                stack.push(node.start);
+                stack.push(index + 1);
+                continue;
+            }
+            for sphere in &self.spheres[node.start as usize..(node.start + node.count) as usize] {
+                let to_center = sphere.center - ray.origin;
+                let t_c = to_center.dot(ray.direction);
+                let d2 = (to_center - ray.direction * t_c).length_squared();
+                if d2 >= sphere.radius2 {
+                    continue;
+                }
+                let half = (sphere.radius2 - d2).sqrt();
+                let (t_enter, t_exit) = ((t_c - half).max(t_min), (t_c + half).min(t_max));
+                if t_enter >= t_exit {
+                    continue;
+                }
+                let photon = &self.map.photons()[sphere.photon as usize];
+                let term = PhotonMap::term(photon, gathered, phase, wo);
+                visit(Crossing {
+                    t_enter,
+                    t_exit,
+                    density: term * sphere.inv_volume,
+                });
+            }
+        }
+    }
+}
+
+/// Each photon's radius.
+fn photon_radii(map: &PhotonMap, radius: BeamRadius) -> Vec<f32> {
+    match radius {
+        BeamRadius::Fixed(r) => vec![r; map.len()],
+        BeamRadius::Nearest { k, max, scale } => {
+            let k = NonZeroUsize::new(k.max(1) as usize).expect("k ≥ 1");
+            map.photons()
+                .par_iter()
+                .map(|photon| {
+                    let found = map
+                        .tree()
+                        .query(&photon.position.to_array())
+                        .nearest_n::<SquaredEuclidean<f32>>(k)
+                        .within(max * max)
+                        .unsorted()
+                        .execute();
+                    scale
+                        * if found.len() < k.get() {
+                            max
+                        } else {
+                            found.iter().fold(0.0f32, |m, h| m.max(h.distance)).sqrt()
+                        }
+                })
+                .collect()
+        }
+    }
+}
+
+/// Builds the subtree of `spheres[start..end]` (median split on the longest axis of the
+/// centres), appending its nodes in depth-first order.
+fn build(spheres: &mut [Sphere], start: usize, end: usize, nodes: &mut Vec<Node>) {
+    let (mut min, mut max) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    let (mut cmin, mut cmax) = (min, max);
+    for s in &spheres[start..end] {
+        let r = s.radius2.sqrt();
+        min = min.min(s.center - r);
+        max = max.max(s.center + r);
+        cmin = cmin.min(s.center);
+        cmax = cmax.max(s.center);
+    }
+    let index = nodes.len();
+    nodes.push(Node {
+        min,
+        max,
+        start: start as u32,
+        count: (end - start) as u32,
+    });
+    if end - start <= LEAF_SIZE {
+        return;
+    }
+    let extent = cmax - cmin;
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let mid = (start + end) / 2;
+    // Ties broken by photon index, so the tree (and the visiting order) is canonical.
+    spheres[start..end].select_nth_unstable_by(mid - start, |a, b| {
+        a.center[axis]
+            .total_cmp(&b.center[axis])
+            .then(a.photon.cmp(&b.photon))
+    });
+    build(spheres, start, mid, nodes);
+    let second = nodes.len() as u32;
+    build(spheres, mid, end, nodes);
+    nodes[index].start = second;
+    nodes[index].count = 0;
+}
+
+/// Whether the ray meets the box within `[t_min, t_max]`.
+#[inline]
+fn slab_hit(min: Vec3, max: Vec3, origin: Vec3, inv_dir: Vec3, t_min: f32, t_max: f32) -> bool {
+    let t1 = (min - origin) * inv_dir;
+    let t2 = (max - origin) * inv_dir;
+    let near = t1.min(t2).max_element().max(t_min);
+    let far = t1.max(t2).min_element().min(t_max);
+    // NaN (a zero direction component on the slab's plane) counts as a hit.
+    near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::photon::{Photon, PhotonStats};
+
+    fn cloud(n: usize) -> PhotonMap {
+        let mut rng = crate::math::Rng::stream(7, crate::math::Domain::Pixels, 0);
+        let photons = (0..n)
+            .map(|_| Photon {
+                position: Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()),
+                direction: Vec3::X,
+                power: Vec3::ONE,
+                sigma_t: 2.0,
+            })
+            .collect();
+        PhotonMap::new(photons, PhotonStats::default())
+    }
+
+    #[test]
+    fn the_hierarchy_finds_exactly_the_spheres_a_ray_crosses() {
+        let map = cloud(3000);
+        let scene = crate::test_util::scene(crate::test_util::SMALL_SCENE);
+        let beams = BeamMap::new(&map, BeamRadius::Fixed(0.03), scene.medium(), false);
+        let mut rng = crate::math::Rng::stream(3, crate::math::Domain::Pixels, 1);
+        let mut stack = Vec::new();
+        for _ in 0..50 {
+            let origin = Vec3::new(rng.uniform(), rng.uniform(), -0.5);
+            let direction = (Vec3::new(rng.uniform(), rng.uniform(), 1.5) - origin).normalize();
+            let ray = Ray { origin, direction };
+            let mut found = Vec::new();
+            beams.crossings(
+                &ray,
+                (0.2, 1.8),
+                Gathered::Flux,
+                Phase::ISOTROPIC,
+                &mut stack,
+                |c| found.push((c.t_enter, c.t_exit)),
+            );
+            let mut expected = Vec::new();
+            for p in map.photons() {
+                let t_c = (p.position - origin).dot(direction);
+                let d2 = (p.position - ray.at(t_c)).length_squared();
+                if d2 < 0.03 * 0.03 {
+                    let half = (0.03f32 * 0.03 - d2).sqrt();
+                    let (a, b) = ((t_c - half).max(0.2), (t_c + half).min(1.8));
+                    if a < b {
+                        expected.push((a, b));
+                    }
+                }
+            }
+            found.sort_by(|a, b| a.0.total_cmp(&b.0));
+            expected.sort_by(|a, b| a.0.total_cmp(&b.0));
+            assert_eq!(found.len(), expected.len());
+            for (f, e) in found.iter().zip(&expected) {
+                assert!((f.0 - e.0).abs() < 1e-5 && (f.1 - e.1).abs() < 1e-5);
+            }
+        }
+    }
+
+    #[test]
+    fn nearest_radii_are_the_kth_neighbour_distance() {
+        let map = cloud(2000);
+        let radii = photon_radii(
+            &map,
+            BeamRadius::Nearest {
+                k: 10,
+                max: 1.0,
+                scale: 1.0,
+            },
+        );
+        for (i, p) in map.photons().iter().enumerate().step_by(97) {
+            let mut d: Vec<f32> = map
+                .photons()
+                .iter()
+                .map(|q| (q.position - p.position).length_squared())
+                .collect();
+            d.sort_by(f32::total_cmp);
+            assert!((radii[i] - d[9].sqrt()).abs() < 1e-6, "photon {i}");
+        }
+    }
+}

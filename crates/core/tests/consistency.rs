@@ -1,0 +1,228 @@
+//! Consistent photon mapping (issue #16): the progressive and beam estimators converge to
+//! the reference path tracer, the beam estimate is the point estimate's limit, and every
+//! iteration's photons carry the same power.
+
+use volphot::test_util as common;
+
+use volphot::{
+    BeamMap, BeamRadius, Control, Estimate, InitialRadius, IntegratorParams, Layer, MsEstimator,
+    MsVariant, Scene, build_photon_map, mean_rgb, render, render_march, render_march_beams,
+    render_reference,
+};
+
+/// A sphere (σt = 3, albedo 0.8) lit by a spot light; multiple scattering only.
+const SPHERE: &str = r#"
+[volume]
+phantom = { name = "sphere", resolution = [24, 24, 24], radius = 0.4 }
+[sigma]
+mapping = "thesis"
+t = 3
+albedo = 0.8
+[camera]
+eye = [0.5, -1.8, 0.5]
+look_at = [0.5, 0.5, 0.5]
+up = [0, 0, 1]
+fov = 36
+resolution = [16, 16]
+[[lights]]
+type = "spot"
+position = [-0.8, -0.6, 1.6]
+target = [0.5, 0.5, 0.5]
+intensity = 10
+cone_angle = 14
+beam_width = 12
+[integrator]
+single = false
+stepsize = 0.004
+spp = 16
+"#;
+
+/// Two slabs along x (σt 2 for x < ½, 8 beyond: a fluence gradient and a kink at the
+/// interface), lit from the thin side, seen from the front.
+const TWO_SLAB: &str = r#"
+[volume]
+phantom = { name = "two-slab", resolution = [32, 32, 32], densities = [0.25, 1.0] }
+reconstruction = "nearest"
+[sigma]
+mapping = "thesis"
+t = 8
+albedo = 0.9
+[camera]
+eye = [0.5, -1.6, 0.5]
+look_at = [0.5, 0.5, 0.5]
+up = [0, 0, 1]
+fov = 36
+resolution = [16, 16]
+[[lights]]
+type = "spot"
+position = [-0.6, 0.5, 0.5]
+target = [0.5, 0.5, 0.5]
+intensity = 4
+cone_angle = 20
+beam_width = 20
+[integrator]
+single = false
+stepsize = 0.004
+spp = 16
+"#;
+
+fn with(scene: &Scene, change: impl FnOnce(&mut IntegratorParams)) -> Scene {
+    let mut settings = scene.integrator().clone();
+    change(&mut settings);
+    scene.with_integrator(settings).unwrap()
+}
+
+/// The multiple layer of a reference render and its per-pixel relative noise (RMS).
+fn reference(scene: &Scene, spp: u32) -> (Vec<glam::Vec3>, f64) {
+    let (film, _) = render_reference(scene, spp, &Control::none()).unwrap();
+    let layer = film.layer(Layer::Multiple).to_vec();
+    let noise = mean_rgb(film.variance(Layer::Multiple).unwrap()).sqrt() / mean_rgb(&layer);
+    (layer, noise)
+}
+
+/// rRMSE against the reference with the reference's own noise removed.
+fn excess_error(image: &[glam::Vec3], reference: &[glam::Vec3], noise: f64) -> f64 {
+    let rel = common::relative_rmse(image, reference);
+    (rel * rel - noise * noise).max(0.0).sqrt()
+}
+
+#[test]
+fn beam_estimate_equals_the_point_estimate_as_the_step_shrinks() {
+    let base = common::scene(SPHERE);
+    let map = build_photon_map(
+        &with(&base, |s| s.volume_photons = 20_000),
+        &Control::none(),
+    )
+    .unwrap();
+    let radius = 0.08;
+    let mut gaps = Vec::new();
+    for step in [0.04f32, 0.01, 0.0025] {
+        let scene = with(&base, |s| {
+            s.stepsize = step;
+            s.estimate = Estimate::Fluence;
+        });
+        let point = MsVariant {
+            map: 0,
+            nused: u32::MAX,
+            maxdist: radius,
+            estimate: Estimate::Fluence,
+        };
+        let points = render_march(&scene, &[&map], &[point], &Control::none()).unwrap();
+        let beams = BeamMap::new(&map, BeamRadius::Fixed(radius), scene.medium(), false);
+        let beam = render_march_beams(&scene, &beams, &Control::none()).unwrap();
+        let (p, b) = (
+            points.films[0].layer(Layer::Multiple),
+            beam.films[0].layer(Layer::Multiple),
+        );
+        gaps.push((step, common::relative_rmse(b, p)));
+    }
+    eprintln!("beam vs point estimate (step, rRMSE): {gaps:?}");
+    assert!(gaps[0].1 > gaps[1].1 && gaps[1].1 > gaps[2].1, "{gaps:?}");
+    assert!(gaps[2].1 < 0.01, "{gaps:?}");
+}
+
+/// Errors beyond the reference's noise of `estimator` after 1, 4, 16 and 64 iterations,
+/// and the final mean ratio.
+fn convergence(
+    scene: &Scene,
+    reference: &(Vec<glam::Vec3>, f64),
+    estimator: MsEstimator,
+) -> (Vec<f64>, f64) {
+    let (ref_multiple, noise) = reference;
+    let mut errors = Vec::new();
+    let mut ratio = 0.0;
+    for iterations in [1, 4, 16, 64] {
+        let scene = with(scene, |s| {
+            s.estimator = estimator;
+            s.iterations = iterations;
+            s.photons_per_iteration = 20_000;
+            s.nused = 50;
+            s.maxdist = 0.2;
+            s.initial_radius = InitialRadius::Nused;
+        });
+        let out = render(&scene, &Control::none()).unwrap();
+        let stats = out.record.progressive.as_ref().unwrap();
+        assert_eq!(stats.iterations, iterations);
+        assert_eq!(stats.radii.len(), iterations as usize);
+        let multiple = out.film.layer(Layer::Multiple);
+        errors.push(excess_error(multiple, ref_multiple, *noise));
+        ratio = mean_rgb(multiple) / mean_rgb(ref_multiple);
+    }
+    eprintln!(
+        "{estimator:?}: rRMSE beyond reference noise {noise:.4} at 1/4/16/64 iterations \
+         {errors:?}, final mean ratio {ratio:.4}"
+    );
+    (errors, ratio)
+}
+
+#[test]
+fn progressive_points_and_beams_converge_to_the_reference() {
+    for (name, src) in [("sphere", SPHERE), ("two-slab", TWO_SLAB)] {
+        let scene = common::scene(src);
+        let reference = reference(&scene, 8192);
+        for estimator in [MsEstimator::Progressive, MsEstimator::Beam] {
+            let (errors, ratio) = convergence(&scene, &reference, estimator);
+            // α = 4/7: RMSE ∝ N^(−2/7) for points (3.3× from 1 to 64 iterations), slower
+            // for beams (their 2-D rule); the reference's noise floor flattens the tail.
+            assert!(
+                errors[0] / errors[3] > 1.6,
+                "{name} {estimator:?}: {errors:?}"
+            );
+            assert!(
+                errors.windows(2).all(|w| w[0] > w[1]),
+                "{name} {estimator:?}: {errors:?}"
+            );
+            assert!(
+                (ratio - 1.0).abs() < 0.03,
+                "{name} {estimator:?}: mean ratio {ratio}"
+            );
+        }
+    }
+}
+
+#[test]
+fn every_iteration_carries_the_same_power() {
+    let scene = with(&common::scene(SPHERE), |s| {
+        s.estimator = MsEstimator::Progressive;
+        s.iterations = 6;
+        s.photons_per_iteration = 20_000;
+    });
+    let out = render(&scene, &Control::none()).unwrap();
+    let stats = out.record.progressive.unwrap();
+    // One big map of the same scene: the power per iteration must match it.
+    let big = build_photon_map(
+        &with(&scene, |s| s.volume_photons = 200_000),
+        &Control::none(),
+    )
+    .unwrap();
+    let expected: f64 = big
+        .photons()
+        .iter()
+        .map(|p| (p.power.x + p.power.y + p.power.z) as f64 / 3.0)
+        .sum();
+    assert_eq!(stats.stored_power.len(), 6);
+    for (i, power) in stats.stored_power.iter().enumerate() {
+        assert!(
+            (power / expected - 1.0).abs() < 0.03,
+            "iteration {}: {power} vs {expected}",
+            i + 1
+        );
+    }
+    // Independent maps: no two iterations store the same photons.
+    assert!(
+        stats.stored.windows(2).any(|w| w[0] != w[1]) || {
+            let p = &stats.stored_power;
+            p.windows(2).all(|w| w[0] != w[1])
+        }
+    );
+    // The radius shrinks by the volumetric rule.
+    for (i, w) in stats.radii.windows(2).enumerate() {
+        let expected = volphot::next_radius(
+            w[0],
+            i as u32 + 1,
+            scene.integrator().alpha,
+            MsEstimator::Progressive,
+        );
+        assert_eq!(w[1], expected);
+    }
+}
