@@ -341,6 +341,11 @@ pub(crate) struct BenchArgs {
     /// sample counts, errors against a converged reference versus CPU-seconds.
     #[arg(long, value_enum)]
     pub(crate) peer: Option<Peer>,
+    /// Compare the multiple-scattering estimators instead (points at the scene's photons
+    /// and 10×, progressive, beam, progressive beams) with the path tracer: RMSE of the
+    /// whole image against a converged reference versus CPU-seconds.
+    #[arg(long, conflicts_with = "peer")]
+    pub(crate) estimators: bool,
     /// Python with Mitsuba 3 installed (default: $VOLPHOT_MITSUBA_PYTHON, else python3);
     /// `scripts/peer-mitsuba.sh` makes one.
     #[arg(long)]

@@ -145,6 +145,9 @@ pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
     if args.peer.is_some() {
         return super::peer::run(args, &scene_path, &params);
     }
+    if args.estimators {
+        return super::peer::run_estimators(args, &scene_path, &params);
+    }
     let pool = crate::render::thread_pool(args.threads)?;
     let single_pool = crate::render::thread_pool(Some(1))?;
     let base = scene_path.parent().unwrap_or(Path::new("."));

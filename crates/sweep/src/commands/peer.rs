@@ -18,8 +18,8 @@ use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use volphot::{
-    Control, Film, Layer, ReferenceAccumulator, Scene, SceneParams, SearchPath, export_mitsuba,
-    process_cpu_seconds, read_pfm,
+    Control, Film, Layer, MsEstimator, ReferenceAccumulator, Scene, SceneParams, SearchPath,
+    export_mitsuba, process_cpu_seconds, read_pfm,
 };
 
 use crate::analyse::mse_against_noisy_reference;
@@ -174,6 +174,108 @@ pub(crate) fn run(args: &BenchArgs, scene_path: &Path, params: &SceneParams) -> 
         volphot::write_atomic(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `sweep bench --estimators`: volphot's multiple-scattering estimators and its path
+/// tracer against one converged reference of the whole image (no peer renderer).
+pub(crate) fn run_estimators(
+    args: &BenchArgs,
+    scene_path: &Path,
+    params: &SceneParams,
+) -> Result<ExitCode> {
+    let pool = crate::render::thread_pool(args.threads)?;
+    let base = scene_path.parent().unwrap_or(Path::new("."));
+    let scene = pool.install(|| Scene::from_params(params, base, &SearchPath::from_env()))?;
+    let passes = args.reference_passes.unwrap_or(1024);
+    eprintln!("estimators: reference ({passes} passes) and renders…");
+    let rows = pool.install(|| -> Result<Vec<Row>> {
+        let reference = reference(&scene, Part::All, passes)?;
+        let mut rows = path_rows(&scene, Part::All, &reference, &args.peer_spp, args.seeds)?;
+        rows.extend(estimator_rows(&scene, &reference, args.seeds)?);
+        Ok(rows)
+    })?;
+    let report = PeerReport {
+        scene: scene_path.display().to_string(),
+        resolution: params.camera.resolution,
+        reference_passes: passes,
+        mitsuba_variant: String::new(),
+        mitsuba_version: String::new(),
+        agreement: Vec::new(),
+        rows,
+    };
+    print_rows(&report.rows);
+    print_time_to_error(&report.rows);
+    if let Some(path) = &args.json {
+        volphot::write_atomic(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The estimators compared by `--estimators`: (name, estimator, photons factor, iterations).
+const ESTIMATORS: [(&str, MsEstimator, u64, u32); 6] = [
+    ("points", MsEstimator::Points, 1, 1),
+    ("points 10× photons", MsEstimator::Points, 10, 1),
+    ("progressive 16 it.", MsEstimator::Progressive, 1, 16),
+    ("progressive 64 it.", MsEstimator::Progressive, 1, 64),
+    ("beam", MsEstimator::Beam, 1, 1),
+    ("beam 16 it.", MsEstimator::Beam, 1, 16),
+];
+
+fn estimator_rows(scene: &Scene, reference: &Reference, seeds: u32) -> Result<Vec<Row>> {
+    let photons = scene.integrator().volume_photons;
+    let mut rows = Vec::new();
+    for (name, estimator, factor, iterations) in ESTIMATORS {
+        let runs = (0..seeds as u64)
+            .map(|k| {
+                let s = scene_for(
+                    scene,
+                    Part::All,
+                    scene.integrator().seed.wrapping_add(1 + k),
+                )?;
+                let mut integrator = s.integrator().clone();
+                integrator.estimator = estimator;
+                integrator.volume_photons = photons.saturating_mul(factor);
+                integrator.iterations = iterations;
+                let s = s.with_integrator(integrator)?;
+                let (out, cpu) = cpu_timed(|| Ok(volphot::render(&s, &Control::none())?))?;
+                Ok((part_of(&out.film, Part::All), cpu))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let setting = format!("{name} ({} photons)", photons.saturating_mul(factor));
+        rows.push(row("volphot photon", Part::All, setting, reference, &runs));
+    }
+    Ok(rows)
+}
+
+/// CPU-seconds each row needs for RMSE 0.02 and 0.01: the path tracer's extrapolated from
+/// its efficiency (unbiased: MSE ∝ 1/time), the photon estimators' only where measured
+/// (their error has a bias floor; more time does not lower it by a known law).
+fn print_time_to_error(rows: &[Row]) {
+    let best_path = rows
+        .iter()
+        .filter(|r| r.renderer == "volphot path")
+        .map(|r| r.efficiency)
+        .fold(f64::INFINITY, f64::min);
+    println!("CPU-seconds to reach RMSE 0.02 / 0.01:");
+    println!(
+        "  path tracer (extrapolated from its best RMSE²·CPU-s): {:.1} / {:.1}",
+        best_path / 0.02f64.powi(2),
+        best_path / 0.01f64.powi(2)
+    );
+    for r in rows.iter().filter(|r| r.renderer == "volphot photon") {
+        let reach = |target: f64| {
+            if r.rmse <= target {
+                format!(
+                    "{:.1} (×{:.2} the path tracer)",
+                    r.cpu_s,
+                    r.cpu_s * target * target / best_path
+                )
+            } else {
+                "not reached".into()
+            }
+        };
+        println!("  {:<44} {} / {}", r.setting, reach(0.02), reach(0.01));
+    }
 }
 
 fn join(values: &[u32]) -> String {
@@ -462,11 +564,15 @@ fn print_report(r: &PeerReport) {
             a.z
         );
     }
+    print_rows(&r.rows);
+}
+
+fn print_rows(rows: &[Row]) {
     println!(
         "{:<22} {:<6} {:<34} {:>8} {:>10} {:>12} {:>8}",
         "renderer", "part", "setting", "CPU s", "RMSE", "RMSE²·CPU-s", "mean/ref"
     );
-    for row in &r.rows {
+    for row in rows {
         println!(
             "{:<22} {:<6} {:<34} {:>8.2} {:>10.3e} {:>12.3e} {:>8.4}",
             row.renderer,
