@@ -319,9 +319,14 @@
   }
 
   /* Draws every view from the panes' canvases: cheap, run on every zoom, pan and split. */
+  let viewWidth = 0;
   function present() {
     const side = S.compare === 'side', split = S.compare === 'split';
     views[1].el.hidden = !side;
+    $('ex-views').classList.toggle('ex-one', !side); /* split and flip use the full width */
+    const width = views[0].el.clientWidth;
+    if (S.view && viewWidth && width !== viewWidth) S.view = { ...S.view, tx: S.view.tx + (width - viewWidth) / 2 };
+    viewWidth = width; /* a wider or narrower view keeps the image centred */
     $('ex-clip').hidden = !split;
     $('ex-split-line').hidden = !split;
     const first = paneOf(0);
@@ -745,7 +750,7 @@
 
   function restoreHash() {
     const p = new URLSearchParams(location.hash.slice(1));
-    const cell = (k) => byIndex.get(Number(p.get(k)));
+    const cell = (k) => (p.has(k) ? byIndex.get(Number(p.get(k))) : undefined); /* Number(null) is 0 */
     if (cell('a') !== undefined) S.a = cell('a');
     if (cell('b') !== undefined) S.b = cell('b');
     if (LAYERS.includes(p.get('layer'))) S.layer = p.get('layer');
