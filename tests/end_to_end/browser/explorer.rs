@@ -428,12 +428,12 @@ fn table_sorts_filters_and_opens(tab: &Tab, m: &Value) {
     visible.sort();
     assert_eq!(visible, want, "the filter keeps the nused = 20 cells");
     eval(tab, "document.activeElement.blur()");
-    let row = format!("#cells-table tr.ex-row:not([hidden])");
+    let row = "#cells-table tr.ex-row:not([hidden])";
     let opened = eval(
         tab,
         &format!("+document.querySelector('{row}').cells[0].textContent"),
     );
-    tab.find_element(&row).unwrap().click().unwrap();
+    tab.find_element(row).unwrap().click().unwrap();
     let s = settled(tab);
     assert_eq!(cell_of(&s, m, "a"), opened.as_u64().unwrap(), "{s}");
 }
