@@ -22,7 +22,7 @@ fn escape(t: &str) -> String {
         .replace('>', "&gt;")
 }
 
-/// Inline Markdown: `code` and [text](link).
+/// Inline Markdown: `code` and `[text](link)`.
 fn inline(t: &str) -> String {
     let mut out = String::new();
     let mut code = false;
