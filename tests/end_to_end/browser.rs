@@ -3,7 +3,9 @@
 //! resolves, nothing reaches the console as an error, and a full-page screenshot is saved
 //! next to the report (`report-screenshot.png`) for a person to look at.
 //!
-//! Without Chromium the test says so and passes, except under `CI=true`, where it fails.
+//! The explorer is scripted in Chromium (`explorer`) and, from `file://`, in Firefox
+//! (`firefox`). Without a browser a test says so and passes, except under `CI=true`, where
+//! it fails.
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -14,6 +16,7 @@ use headless_chrome::{Browser, LaunchOptions, Tab};
 use volphot_tests::{run_ok, skip, sweep, write_experiment};
 
 mod explorer;
+mod firefox;
 
 /// Chromium from `$CHROMIUM` or the usual Debian paths.
 fn chromium() -> Option<PathBuf> {

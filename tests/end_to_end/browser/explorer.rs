@@ -61,7 +61,7 @@ fn cell_of(state: &Value, manifest: &Value, pane: &str) -> u64 {
 }
 
 /// Position in the manifest of the cell at these coordinates.
-fn cell_at(manifest: &Value, coords: &[u64]) -> usize {
+pub(super) fn cell_at(manifest: &Value, coords: &[u64]) -> usize {
     manifest["cells"]
         .as_array()
         .unwrap()
@@ -193,7 +193,7 @@ fn flip_by_key(tab: &Tab) {
 }
 
 /// The brightest pixel of a film's single + multiple scattering (ties: the first).
-fn brightest(film: &Film) -> (usize, usize) {
+pub(super) fn brightest(film: &Film) -> (usize, usize) {
     let (single, multiple) = (film.layer(Layer::Single), film.layer(Layer::Multiple));
     let lum = |i: usize| {
         let v = single[i] + multiple[i];
@@ -229,7 +229,7 @@ fn assert_half(what: &str, shown: &Value, want: [f32; 3], scale: [f32; 3], terms
 }
 
 /// Where a data file's cell or reference keeps its film.
-fn film_of(out: &Path, data_path: &str) -> PathBuf {
+pub(super) fn film_of(out: &Path, data_path: &str) -> PathBuf {
     let name = Path::new(data_path).file_stem().unwrap();
     if data_path.contains("/refs/") {
         out.join("references").join(name).join("reference.exr")
@@ -343,7 +343,13 @@ fn assert_nearest_neighbour(tab: &Tab, state: &Value, (px, py): (usize, usize)) 
 }
 
 /// The readout equals the EXR's values of A's cell and reference, to half precision.
-fn check_readout(out: &Path, m: &Value, state: &Value, readout: &Value, (px, py): (usize, usize)) {
+pub(super) fn check_readout(
+    out: &Path,
+    m: &Value,
+    state: &Value,
+    readout: &Value,
+    (px, py): (usize, usize),
+) {
     let cell = &m["cells"][state["a"].as_u64().unwrap() as usize];
     let film = Film::read_exr(&film_of(out, cell["data"].as_str().unwrap())).unwrap();
     let i = py * film.width() + px;

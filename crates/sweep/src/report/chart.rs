@@ -86,6 +86,19 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     }
 }
 
+/// The points of a series that can be drawn (finite, positive on a log axis), with their
+/// indices in the series.
+fn drawable(plot: &Plot, s: &Series) -> Vec<(usize, (f64, f64))> {
+    s.points
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|(_, (x, y))| {
+            x.is_finite() && y.is_finite() && (!plot.log_x || *x > 0.0) && (!plot.log_y || *y > 0.0)
+        })
+        .collect()
+}
+
 /// Draws the plot; returns where its points landed.
 fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plot: &Plot) -> Result<Vec<Hotspot>>
 where
@@ -135,18 +148,7 @@ where
                 .map_err(err)?;
             for (i, s) in plot.series.iter().enumerate() {
                 let colour = Palette99::pick(i).mix(0.95);
-                let drawn: Vec<(usize, (f64, f64))> = s
-                    .points
-                    .iter()
-                    .copied()
-                    .enumerate()
-                    .filter(|(_, (x, y))| {
-                        x.is_finite()
-                            && y.is_finite()
-                            && (!plot.log_x || *x > 0.0)
-                            && (!plot.log_y || *y > 0.0)
-                    })
-                    .collect();
+                let drawn = drawable(plot, s);
                 hotspots.extend(drawn.iter().map(|(point, p)| Hotspot {
                     series: i,
                     point: *point,
