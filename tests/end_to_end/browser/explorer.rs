@@ -5,6 +5,7 @@
 //! next to the report (`explorer-*.png`) and nothing may reach the console as an error.
 
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use headless_chrome::Tab;
 use headless_chrome::browser::tab::ModifierKey;
@@ -12,7 +13,7 @@ use headless_chrome::browser::tab::point::Point;
 use headless_chrome::protocol::cdp::{Input, Page};
 use serde_json::Value;
 use volphot::{Film, Layer};
-use volphot_tests::skip;
+use volphot_tests::{run_ok, skip, sweep};
 
 use super::{chromium, launch, open_report, small_report, watch_console};
 
@@ -548,4 +549,65 @@ fn explorer_opens_a_large_report_quickly() {
     }
     let console = console.lock().unwrap();
     assert!(console.is_empty(), "console errors: {console:?}");
+}
+
+/// The explorer's data files under `explorer/`, by path relative to it: bytes and mtime.
+fn data_files(out: &Path) -> std::collections::BTreeMap<String, (Vec<u8>, std::time::SystemTime)> {
+    let mut files = std::collections::BTreeMap::new();
+    for sub in ["cells", "refs"] {
+        for e in std::fs::read_dir(out.join("explorer").join(sub))
+            .unwrap()
+            .flatten()
+        {
+            let name = format!("{sub}/{}", e.file_name().to_string_lossy());
+            let modified = e.metadata().unwrap().modified().unwrap();
+            files.insert(name, (std::fs::read(e.path()).unwrap(), modified));
+        }
+    }
+    files
+}
+
+/// A second `sweep report` keeps every current data file untouched; a deleted one comes
+/// back byte for byte, a stray one is removed. No browser needed.
+#[test]
+fn explorer_data_files_are_kept_rewritten_identically_and_pruned() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = small_report(dir.path());
+    let first = data_files(&out);
+    let names: Vec<&String> = first.keys().collect();
+    assert_eq!(
+        names.iter().filter(|n| n.starts_with("cells/")).count(),
+        4,
+        "one file per cell: {names:?}"
+    );
+    assert_eq!(
+        names.iter().filter(|n| n.starts_with("refs/")).count(),
+        2,
+        "one file per reference (one per sigma.t): {names:?}"
+    );
+    for (name, (bytes, _)) in &first {
+        let text = std::str::from_utf8(bytes).unwrap();
+        let (stamp, call) = text.split_once('\n').unwrap();
+        assert!(stamp.starts_with("// volphot explorer data "), "{name}");
+        let path = format!("volphotExplorerData(\"explorer/{name}\", {{");
+        assert!(call.starts_with(&path) && call.ends_with(");\n"), "{name}");
+    }
+    std::thread::sleep(Duration::from_millis(20));
+    run_ok(sweep().arg("report").arg(&out));
+    assert_eq!(data_files(&out), first, "a second report rewrites nothing");
+
+    let (gone, _) = first.iter().next().unwrap();
+    std::fs::remove_file(out.join("explorer").join(gone)).unwrap();
+    std::fs::write(out.join("explorer/cells/0000000000000000.js"), "stray").unwrap();
+    run_ok(sweep().arg("report").arg(&out));
+    let again = data_files(&out);
+    assert_eq!(
+        again.keys().collect::<Vec<_>>(),
+        names,
+        "the stray file is removed"
+    );
+    assert_eq!(
+        again[gone].0, first[gone].0,
+        "{gone} is written again, byte for byte"
+    );
 }
