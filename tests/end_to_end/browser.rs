@@ -3,15 +3,20 @@
 //! resolves, nothing reaches the console as an error, and a full-page screenshot is saved
 //! next to the report (`report-screenshot.png`) for a person to look at.
 //!
-//! Without Chromium the test says so and passes, except under `CI=true`, where it fails.
+//! The explorer is scripted in Chromium (`explorer`) and, from `file://`, in Firefox
+//! (`firefox`). Without a browser a test says so and passes, except under `CI=true`, where
+//! it fails.
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use headless_chrome::protocol::cdp::types::Event;
 use headless_chrome::protocol::cdp::{Log, Page, Runtime};
-use headless_chrome::{Browser, LaunchOptions};
+use headless_chrome::{Browser, LaunchOptions, Tab};
 use volphot_tests::{run_ok, skip, sweep, write_experiment};
+
+mod explorer;
+mod firefox;
 
 /// Chromium from `$CHROMIUM` or the usual Debian paths.
 fn chromium() -> Option<PathBuf> {
@@ -70,6 +75,87 @@ series = "sigma.t"
     out
 }
 
+/// Headless Chromium with a 1280×900 window.
+fn launch(chrome: PathBuf) -> Browser {
+    Browser::new(
+        LaunchOptions::default_builder()
+            .path(Some(chrome))
+            // Containers run tests as root, where Chromium's sandbox cannot start.
+            .sandbox(false)
+            .window_size(Some((1280, 900)))
+            // The explorer test pauses between calls while it reads films.
+            .idle_browser_timeout(std::time::Duration::from_secs(120))
+            .build()
+            .unwrap(),
+    )
+    .expect("Chromium starts")
+}
+
+/// Collects what the page reports as errors: failed loads, `console.error`, exceptions.
+fn watch_console(tab: &Tab) -> Arc<Mutex<Vec<String>>> {
+    let console: Arc<Mutex<Vec<String>>> = Arc::default();
+    let sink = console.clone();
+    tab.add_event_listener(Arc::new(move |event: &Event| {
+        let line = match event {
+            Event::LogEntryAdded(e)
+                if matches!(e.params.entry.level, Log::LogEntryLevel::Error) =>
+            {
+                Some(format!(
+                    "log: {} {:?}",
+                    e.params.entry.text, e.params.entry.url
+                ))
+            }
+            Event::RuntimeConsoleAPICalled(e)
+                if matches!(
+                    e.params.Type,
+                    Runtime::ConsoleAPICalledEventTypeOption::Error
+                        | Runtime::ConsoleAPICalledEventTypeOption::Assert
+                ) =>
+            {
+                let args: Vec<String> = e
+                    .params
+                    .args
+                    .iter()
+                    .map(|a| match (&a.value, &a.description) {
+                        (Some(v), _) => v.to_string(),
+                        (None, Some(d)) => d.clone(),
+                        (None, None) => String::new(),
+                    })
+                    .collect();
+                Some(format!("console.{:?}: {}", e.params.Type, args.join(" ")))
+            }
+            Event::RuntimeExceptionThrown(e) => {
+                let d = &e.params.exception_details;
+                let detail = d.exception.as_ref().and_then(|x| x.description.clone());
+                Some(format!(
+                    "exception: {} {}",
+                    d.text,
+                    detail.unwrap_or_default()
+                ))
+            }
+            _ => None,
+        };
+        if let Some(line) = line {
+            sink.lock().unwrap().push(line);
+        }
+    }))
+    .unwrap();
+    tab.enable_log().unwrap();
+    tab.enable_runtime().unwrap();
+    console
+}
+
+/// Opens `report.html` of `out` from disk.
+fn open_report(tab: &Tab, out: &Path) {
+    let report = out.join("report.html");
+    assert!(report.is_file());
+    let url = format!("file://{}", report.canonicalize().unwrap().display());
+    tab.navigate_to(&url)
+        .unwrap()
+        .wait_until_navigated()
+        .unwrap();
+}
+
 /// What the page reported: problems found by the browser itself.
 #[derive(Debug, serde::Deserialize)]
 struct PageCheck {
@@ -114,58 +200,11 @@ fn html_report_renders_in_chromium() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let out = small_report(&dir);
-    let report = out.join("report.html");
-    assert!(report.is_file());
 
-    let browser = Browser::new(
-        LaunchOptions::default_builder()
-            .path(Some(chrome))
-            // Containers run tests as root, where Chromium's sandbox cannot start.
-            .sandbox(false)
-            .window_size(Some((1280, 900)))
-            .build()
-            .unwrap(),
-    )
-    .expect("Chromium starts");
+    let browser = launch(chrome);
     let tab = browser.new_tab().unwrap();
-    let console: Arc<Mutex<Vec<String>>> = Arc::default();
-    let sink = console.clone();
-    tab.add_event_listener(Arc::new(move |event: &Event| {
-        let line = match event {
-            Event::LogEntryAdded(e)
-                if matches!(e.params.entry.level, Log::LogEntryLevel::Error) =>
-            {
-                Some(format!(
-                    "log: {} {:?}",
-                    e.params.entry.text, e.params.entry.url
-                ))
-            }
-            Event::RuntimeConsoleAPICalled(e)
-                if matches!(
-                    e.params.Type,
-                    Runtime::ConsoleAPICalledEventTypeOption::Error
-                        | Runtime::ConsoleAPICalledEventTypeOption::Assert
-                ) =>
-            {
-                Some(format!("console.{:?}", e.params.Type))
-            }
-            Event::RuntimeExceptionThrown(e) => {
-                Some(format!("exception: {}", e.params.exception_details.text))
-            }
-            _ => None,
-        };
-        if let Some(line) = line {
-            sink.lock().unwrap().push(line);
-        }
-    }))
-    .unwrap();
-    tab.enable_log().unwrap();
-    tab.enable_runtime().unwrap();
-    let url = format!("file://{}", report.canonicalize().unwrap().display());
-    tab.navigate_to(&url)
-        .unwrap()
-        .wait_until_navigated()
-        .unwrap();
+    let console = watch_console(&tab);
+    open_report(&tab, &out);
 
     let result = tab.evaluate(CHECK_PAGE, false).unwrap();
     let text = result

@@ -4,7 +4,7 @@
 //! * `reliability` — inputs and events that used to hang, exhaust memory or mislead;
 //! * `faults` — runs killed at many moments, damaged cells, a full file system;
 //! * `claims` — the thesis's findings that the committed studies reproduce, on small grids;
-//! * `browser` — `report.html` in headless Chromium;
+//! * `browser` — `report.html` and its image explorer in headless Chromium;
 //! * `slurm` — a real single-node Slurm cluster (CI or `VOLPHOT_SLURM_TEST=1`);
 //! * `peer` — Mitsuba 3 renders the same scene (CI or `VOLPHOT_PEER_TEST=1`).
 //!

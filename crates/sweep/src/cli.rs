@@ -268,7 +268,7 @@ pub(crate) struct RunArgs {
     pub(crate) experiment: PathBuf,
     #[command(flatten)]
     pub(crate) quality: QualityArgs,
-    /// Output folder (default: reports/<experiment name>/).
+    /// Output folder (default: `reports/<experiment name>/`).
     #[arg(short, long)]
     pub(crate) output: Option<PathBuf>,
     /// Render only these cells, e.g. `3,7-9` (for outside schedulers).

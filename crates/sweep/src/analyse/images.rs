@@ -255,10 +255,19 @@ pub(crate) fn ssim(a: &[u8], b: &[u8], width: u32, height: u32) -> f64 {
 
 /// Mean FLIP error of two sRGB8 images at the default 67 pixels per degree (0 = identical).
 pub(crate) fn flip(a: &[u8], b: &[u8], width: u32, height: u32) -> f64 {
+    nv_flip::FlipPool::from_image(&flip_image(a, b, width, height)).mean() as f64
+}
+
+/// The per-pixel FLIP error of `a` against the reference `b` (sRGB8, row-major, in [0, 1]);
+/// its mean is [`flip`].
+pub(crate) fn flip_map(a: &[u8], b: &[u8], width: u32, height: u32) -> Vec<f32> {
+    flip_image(a, b, width, height).to_vec()
+}
+
+fn flip_image(a: &[u8], b: &[u8], width: u32, height: u32) -> nv_flip::FlipImageFloat {
     let reference = nv_flip::FlipImageRgb8::with_data(width, height, b);
     let test = nv_flip::FlipImageRgb8::with_data(width, height, a);
-    let error = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
-    nv_flip::FlipPool::from_image(&error).mean() as f64
+    nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE)
 }
 
 #[cfg(test)]

@@ -15,7 +15,9 @@ use volphot::{Film, SceneParams};
 
 pub(crate) use agreement::{Agreement, agreement, mse_against_noisy_reference};
 pub(crate) use columns::{METRIC_COLUMNS, MetricColumn, is_metric, metric_keys};
-pub(crate) use images::{compare, disco, disco_excess, displayed, image_stats, luminance};
+pub(crate) use images::{
+    compare, disco, disco_excess, displayed, flip_map, image_stats, luminance,
+};
 
 use crate::store::{
     DiscoScore, ImageStats, OutputDir, read_reference_record, write_reference_metrics,

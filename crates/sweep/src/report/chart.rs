@@ -15,6 +15,19 @@ pub(crate) struct Series {
     pub(crate) name: String,
     /// `(x, y)` points, sorted by x.
     pub(crate) points: Vec<(f64, f64)>,
+    /// The plan indices of the cells behind each point (a point may average several).
+    pub(crate) cells: Vec<Vec<usize>>,
+}
+
+/// Where a drawn point landed in the 900×560 image, for making it clickable.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Hotspot {
+    /// Index into `Plot::series`.
+    pub(crate) series: usize,
+    /// Index into that series' points.
+    pub(crate) point: usize,
+    /// Pixel position (x right, y down).
+    pub(crate) at: (i32, i32),
 }
 
 /// A plot to draw.
@@ -73,7 +86,21 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     }
 }
 
-fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plot: &Plot) -> Result<()>
+/// The points of a series that can be drawn (finite, positive on a log axis), with their
+/// indices in the series.
+fn drawable(plot: &Plot, s: &Series) -> Vec<(usize, (f64, f64))> {
+    s.points
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|(_, (x, y))| {
+            x.is_finite() && y.is_finite() && (!plot.log_x || *x > 0.0) && (!plot.log_y || *y > 0.0)
+        })
+        .collect()
+}
+
+/// Draws the plot; returns where its points landed.
+fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plot: &Plot) -> Result<Vec<Hotspot>>
 where
     DB::ErrorType: 'static,
 {
@@ -106,6 +133,7 @@ where
         .y_label_area_size(70);
     // <<Mesh, one line and point series per series, legend>>: a macro because each
     // combination of linear and log axes is a different plotters coordinate type.
+    let mut hotspots = Vec::new();
     macro_rules! finish {
         ($chart:expr) => {{
             let mut chart = $chart;
@@ -120,17 +148,13 @@ where
                 .map_err(err)?;
             for (i, s) in plot.series.iter().enumerate() {
                 let colour = Palette99::pick(i).mix(0.95);
-                let pts: Vec<(f64, f64)> = s
-                    .points
-                    .iter()
-                    .copied()
-                    .filter(|(x, y)| {
-                        x.is_finite()
-                            && y.is_finite()
-                            && (!plot.log_x || *x > 0.0)
-                            && (!plot.log_y || *y > 0.0)
-                    })
-                    .collect();
+                let drawn = drawable(plot, s);
+                hotspots.extend(drawn.iter().map(|(point, p)| Hotspot {
+                    series: i,
+                    point: *point,
+                    at: chart.backend_coord(p),
+                }));
+                let pts: Vec<(f64, f64)> = drawn.into_iter().map(|(_, p)| p).collect();
                 chart
                     .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
                     .map_err(err)?
@@ -182,7 +206,7 @@ where
         ),
     }
     root.present().map_err(err)?;
-    Ok(())
+    Ok(hotspots)
 }
 
 /// A tick label: three significant digits without trailing zeros (`25`, `0.2`, `0.000125`).
@@ -195,15 +219,18 @@ fn tick_label(v: f64) -> String {
     }
 }
 
-/// Writes `stem.png` and `stem.svg` (900×560).
-pub(crate) fn write_plot(stem: &Path, plot: &Plot) -> Result<()> {
+/// The size of every plot image.
+pub(crate) const PLOT_SIZE: (u32, u32) = (900, 560);
+
+/// Writes `stem.png` and `stem.svg` (900×560); returns where the points are in both.
+pub(crate) fn write_plot(stem: &Path, plot: &Plot) -> Result<Vec<Hotspot>> {
     register_font();
-    let (w, h) = (900u32, 560u32);
+    let (w, h) = PLOT_SIZE;
     let mut buffer = vec![0u8; (w * h * 3) as usize];
-    {
+    let hotspots = {
         let root = BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area();
-        draw(&root, plot)?;
-    }
+        draw(&root, plot)?
+    };
     volphot::write_png_rgb8(&stem.with_extension("png"), w as usize, h as usize, &buffer)?;
     let mut svg = String::new();
     {
@@ -211,7 +238,7 @@ pub(crate) fn write_plot(stem: &Path, plot: &Plot) -> Result<()> {
         draw(&root, plot)?;
     }
     volphot::write_atomic(&stem.with_extension("svg"), svg.as_bytes())?;
-    Ok(())
+    Ok(hotspots)
 }
 
 #[cfg(test)]
@@ -240,16 +267,18 @@ mod tests {
                 Series {
                     name: "t = 80".into(),
                     points: vec![(25.0, 0.1), (50.0, 0.05), (150.0, 0.01)],
+                    cells: vec![vec![0], vec![1], vec![2]],
                 },
                 Series {
                     name: "t = 6".into(),
                     points: vec![(25.0, 0.02), (50.0, 0.01), (150.0, 0.0)],
+                    cells: vec![vec![3], vec![4], vec![5]],
                 },
             ],
             log_x: true,
             log_y: false,
         };
-        write_plot(&dir.path().join("p"), &plot).unwrap();
+        let hotspots = write_plot(&dir.path().join("p"), &plot).unwrap();
         let png = image::open(dir.path().join("p.png")).unwrap().into_rgb8();
         assert_eq!(png.dimensions(), (900, 560));
         assert!(
@@ -258,5 +287,24 @@ mod tests {
         );
         let svg = std::fs::read_to_string(dir.path().join("p.svg")).unwrap();
         assert!(svg.contains("<svg") && svg.contains("t = 80"));
+        // Every point has a hotspot inside the image, on the series' colour, left to right
+        // along the log axis.
+        assert_eq!(hotspots.len(), 6);
+        for h in &hotspots {
+            let (x, y) = h.at;
+            assert!(x > 0 && y > 0 && x < 900 && y < 560, "{h:?}");
+            let pixel = png.get_pixel(x as u32, y as u32).0;
+            assert_ne!(pixel, [255, 255, 255], "{h:?} is on a drawn point");
+        }
+        let first: Vec<i32> = hotspots
+            .iter()
+            .filter(|h| h.series == 0)
+            .map(|h| h.at.0)
+            .collect();
+        assert!(first.windows(2).all(|w| w[0] < w[1]), "{first:?}");
+        assert!(
+            hotspots[0].at.1 < hotspots[2].at.1,
+            "higher values are higher up"
+        );
     }
 }

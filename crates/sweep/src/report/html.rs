@@ -1,10 +1,15 @@
 //! `report.html`: the report's Markdown as one self-contained page (images inlined), for a
-//! plain `file://` open without a network.
+//! plain `file://` open without a network, with the image explorer before the first
+//! section; plot points and rows of the cells table open their cells in it.
 
+use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{Context, Result};
 use base64::Engine as _;
+
+use super::explorer::Explorer;
+use super::{Figures, PlotFigure};
 
 const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\
 table{border-collapse:collapse;font-size:0.85em;margin:1em 0}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}\
@@ -17,7 +22,7 @@ fn escape(t: &str) -> String {
         .replace('>', "&gt;")
 }
 
-/// Inline Markdown: `code` and [text](link).
+/// Inline Markdown: `code` and `[text](link)`.
 fn inline(t: &str) -> String {
     let mut out = String::new();
     let mut code = false;
@@ -48,14 +53,17 @@ fn inline(t: &str) -> String {
 }
 
 /// Open blocks while converting line by line.
-#[derive(Default)]
-struct Blocks {
+struct Blocks<'a> {
     body: String,
     in_table: bool,
     in_list: bool,
+    /// The current `##` section's title.
+    section: String,
+    /// The plots, by their path relative to the report.
+    plots: Vec<(String, &'a PlotFigure)>,
 }
 
-impl Blocks {
+impl Blocks<'_> {
     /// Closes a table or list that the line does not continue.
     fn close_unless(&mut self, trimmed: &str) {
         if self.in_table && !trimmed.starts_with('|') {
@@ -76,7 +84,12 @@ impl Blocks {
         let header = !self.in_table
             && next.is_some_and(|n| n.trim().starts_with("|-") || n.trim().starts_with("|--"));
         if !self.in_table {
-            self.body += "<table>\n";
+            // The cells table: the explorer sorts and filters it, a row opens its cell.
+            self.body += if self.section == "Cells" {
+                "<table id=\"cells-table\">\n"
+            } else {
+                "<table>\n"
+            };
             self.in_table = true;
         }
         let tag = if header { "th" } else { "td" };
@@ -94,10 +107,19 @@ impl Blocks {
         let src = src.trim_end_matches(')');
         let bytes = std::fs::read(root.join(src)).with_context(|| format!("embedding {src}"))?;
         let data = base64::engine::general_purpose::STANDARD.encode(bytes);
-        self.body += &format!(
-            "<figure><img alt=\"{}\" src=\"data:image/png;base64,{data}\"></figure>\n",
+        let img = format!(
+            "<img alt=\"{}\" src=\"data:image/png;base64,{data}\">",
             escape(alt)
         );
+        match self.plots.iter().find(|(path, _)| path == src) {
+            Some((_, plot)) => {
+                self.body += &format!(
+                    "<figure class=\"plot\"><div class=\"plot-box\">{img}{}</div></figure>\n",
+                    plot_points(plot)
+                );
+            }
+            None => self.body += &format!("<figure>{img}</figure>\n"),
+        }
         Ok(())
     }
 
@@ -106,6 +128,7 @@ impl Blocks {
         if let Some(h) = trimmed.strip_prefix("### ") {
             self.body += &format!("<h3>{}</h3>\n", inline(h));
         } else if let Some(h) = trimmed.strip_prefix("## ") {
+            self.section = h.trim().to_string();
             self.body += &format!("<h2>{}</h2>\n", inline(h));
         } else if let Some(h) = trimmed.strip_prefix("# ") {
             self.body += &format!("<h1>{}</h1>\n", inline(h));
@@ -127,13 +150,54 @@ impl Blocks {
     }
 }
 
-/// Turns the report's Markdown into a self-contained HTML page (images inlined).
-pub(crate) fn html(root: &Path, markdown: &str) -> Result<String> {
-    let mut blocks = Blocks::default();
+/// The clickable points over a plot image: an SVG with the plot's geometry, one circle per
+/// drawn point carrying the plan indices of its cells.
+fn plot_points(plot: &PlotFigure) -> String {
+    let (w, h) = super::chart::PLOT_SIZE;
+    let mut svg =
+        format!("<svg class=\"plot-points\" viewBox=\"0 0 {w} {h}\" preserveAspectRatio=\"none\">");
+    for p in &plot.points {
+        let cells: Vec<String> = p.cells.iter().map(usize::to_string).collect();
+        let _ = write!(
+            svg,
+            "<circle cx=\"{}\" cy=\"{}\" r=\"9\" data-cells=\"{}\"><title>{}</title></circle>",
+            p.at.0,
+            p.at.1,
+            cells.join(" "),
+            escape(&p.text)
+        );
+    }
+    svg + "</svg>"
+}
+
+/// Turns the report's Markdown into a self-contained HTML page (images inlined) with the
+/// explorer.
+pub(crate) fn html(
+    root: &Path,
+    markdown: &str,
+    explorer: &Explorer,
+    figures: &Figures,
+) -> Result<String> {
+    let mut blocks = Blocks {
+        body: String::new(),
+        in_table: false,
+        in_list: false,
+        section: String::new(),
+        plots: figures
+            .plots
+            .iter()
+            .map(|p| (super::markdown::rel(root, &p.path), p))
+            .collect(),
+    };
     let lines: Vec<&str> = markdown.lines().collect();
+    let mut explorer_placed = false;
     for (li, line) in lines.iter().enumerate() {
         let trimmed = line.trim();
         blocks.close_unless(trimmed);
+        if !explorer_placed && trimmed.starts_with("## ") {
+            blocks.body += &explorer.section();
+            explorer_placed = true;
+        }
         if trimmed.starts_with("#") || trimmed.starts_with("- ") {
             blocks.text(line, trimmed);
         } else if let Some(img) = trimmed.strip_prefix("![") {
@@ -145,8 +209,12 @@ pub(crate) fn html(root: &Path, markdown: &str) -> Result<String> {
         }
     }
     blocks.close_unless("");
+    if !explorer_placed {
+        blocks.body += &explorer.section();
+    }
     Ok(format!(
-        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>volphot report</title><style>{STYLE}</style></head><body>\n{}</body></html>\n",
-        blocks.body
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>volphot report</title><style>{STYLE}</style></head><body>\n{}{}</body></html>\n",
+        blocks.body,
+        explorer.script()
     ))
 }

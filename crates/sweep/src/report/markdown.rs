@@ -36,7 +36,8 @@ pub(crate) struct Report<'a> {
     pub(crate) figures: &'a Figures,
 }
 
-fn rel(root: &Path, path: &Path) -> String {
+/// `path` relative to the report's folder, as the report links it.
+pub(super) fn rel(root: &Path, path: &Path) -> String {
     path.strip_prefix(root)
         .unwrap_or(path)
         .display()
@@ -242,7 +243,13 @@ impl Report<'_> {
             }
         };
         section("Contact sheets", &self.figures.sheets);
-        section("Plots", &self.figures.plots);
+        let plots: Vec<(String, PathBuf)> = self
+            .figures
+            .plots
+            .iter()
+            .map(|p| (p.caption.clone(), p.path.clone()))
+            .collect();
+        section("Plots", &plots);
         section("Difference images", &self.figures.diffs);
         for (title, t) in &self.figures.comparisons {
             let _ = writeln!(s, "\n### Comparison {title}\n");

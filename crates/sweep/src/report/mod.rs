@@ -5,6 +5,7 @@
 mod chart;
 mod collect;
 mod diffs;
+mod explorer;
 mod figures;
 mod html;
 mod markdown;
@@ -27,8 +28,26 @@ use crate::store::{OutputDir, clean_stale};
 pub(crate) struct Figures {
     sheets: Vec<(String, PathBuf)>,
     diffs: Vec<(String, PathBuf)>,
-    plots: Vec<(String, PathBuf)>,
+    plots: Vec<PlotFigure>,
     comparisons: Vec<(String, Table)>,
+}
+
+/// A plot whose points open their cells in the explorer.
+pub(crate) struct PlotFigure {
+    caption: String,
+    /// The PNG (the SVG beside it has the same geometry).
+    path: PathBuf,
+    points: Vec<PlotPoint>,
+}
+
+/// A drawn point of a plot.
+pub(crate) struct PlotPoint {
+    /// Pixel position in the plot image.
+    at: (i32, i32),
+    /// Plan indices of the cells it stands for (several when it is a mean).
+    cells: Vec<usize>,
+    /// What it shows, for a tooltip.
+    text: String,
 }
 
 /// Removes what a killed report left half-written (its files are written atomically through
@@ -74,7 +93,8 @@ pub(crate) fn build_report(out: &OutputDir) -> Result<PathBuf> {
     }
     .markdown();
     volphot::write_atomic(&out.root().join("report.md"), markdown.as_bytes())?;
-    let html = html::html(out.root(), &markdown)?;
+    let explorer = explorer::Explorer::build(out, &plan, &cells)?;
+    let html = html::html(out.root(), &markdown, &explorer, &figures)?;
     let path = out.root().join("report.html");
     volphot::write_atomic(&path, html.as_bytes())?;
     Ok(path)

@@ -6,9 +6,9 @@ use std::collections::BTreeMap;
 
 use anyhow::Result;
 
-use super::Figures;
-use super::chart::{Plot, Series, write_plot};
+use super::chart::{Hotspot, Plot, Series, write_plot};
 use super::collect::{Collected, axis_value, distinct_values, matches, numeric, value_label};
+use super::{Figures, PlotFigure, PlotPoint};
 use crate::analyse::{METRIC_COLUMNS, MetricColumn};
 use crate::plan::{Experiment, PlotSpec, short_key, value_text};
 use crate::store::{OutputDir, PlanRecord};
@@ -86,19 +86,48 @@ pub(crate) fn plots(
                 log_y: spec.log_y,
             };
             let stem = dir.join(format!("p{pi}_{}_vs_{}", metric, spec.x.replace('.', "_")));
-            write_plot(&stem, &plot)?;
-            figures
-                .plots
-                .push((plot.title.clone(), stem.with_extension("png")));
+            let hotspots = write_plot(&stem, &plot)?;
+            figures.plots.push(PlotFigure {
+                points: linked_points(&plot, &hotspots, metric),
+                caption: plot.title,
+                path: stem.with_extension("png"),
+            });
         }
     }
     Ok(())
 }
 
+/// The drawn points with the cells behind them and a tooltip.
+fn linked_points(plot: &Plot, hotspots: &[Hotspot], metric: &str) -> Vec<PlotPoint> {
+    hotspots
+        .iter()
+        .map(|h| {
+            let series = &plot.series[h.series];
+            let (x, y) = series.points[h.point];
+            let cells = series.cells[h.point].clone();
+            let mut text = format!("{} = {x}: {metric} = {y:.4e}", plot.x_label);
+            if !series.name.is_empty() {
+                text = format!("{}, {text}", series.name);
+            }
+            if cells.len() > 1 {
+                text += &format!(" (mean of {} cells)", cells.len());
+            }
+            PlotPoint {
+                at: h.at,
+                cells,
+                text,
+            }
+        })
+        .collect()
+}
+
+/// Ys of one x: the x value, the metric per cell and the cells' plan indices.
+type Column = (f64, Vec<f64>, Vec<usize>);
+
 /// One line per value of the series axis (in plan order): x → mean of the metric over the
 /// remaining axes.
 fn series(spec: &PlotSpec, column: &MetricColumn, cells: &[&Collected]) -> Vec<Series> {
-    let mut lines: BTreeMap<String, BTreeMap<i64, (f64, Vec<f64>)>> = BTreeMap::new();
+    let mut lines: BTreeMap<String, BTreeMap<i64, Column>> = BTreeMap::new();
     let mut order: Vec<String> = Vec::new();
     for c in cells {
         let (Some(r), Some(x)) = (
@@ -121,23 +150,28 @@ fn series(spec: &PlotSpec, column: &MetricColumn, cells: &[&Collected]) -> Vec<S
         if !order.contains(&name) {
             order.push(name.clone());
         }
-        lines
-            .entry(name)
-            .or_default()
-            .entry(key)
-            .or_insert((x, Vec::new()))
-            .1
-            .push(y);
+        let column =
+            lines
+                .entry(name)
+                .or_default()
+                .entry(key)
+                .or_insert((x, Vec::new(), Vec::new()));
+        column.1.push(y);
+        column.2.push(c.planned.index);
     }
     order
         .into_iter()
         .filter_map(|name| lines.remove(&name).map(|pts| (name, pts)))
-        .map(|(name, pts)| Series {
-            name,
-            points: pts
+        .map(|(name, pts)| {
+            let (points, cells) = pts
                 .into_values()
-                .map(|(x, ys)| (x, ys.iter().sum::<f64>() / ys.len() as f64))
-                .collect(),
+                .map(|(x, ys, cells)| ((x, ys.iter().sum::<f64>() / ys.len() as f64), cells))
+                .unzip();
+            Series {
+                name,
+                points,
+                cells,
+            }
         })
         .collect()
 }

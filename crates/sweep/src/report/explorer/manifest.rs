@@ -1,0 +1,134 @@
+//! The manifest inlined into `report.html`: the axes with their values, every planned cell
+//! (its coordinates on the axes, status and data file) and the references. The page builds
+//! its controls from it and loads a cell's data only when the cell is shown.
+
+use serde::Serialize;
+
+use super::data::DataIndex;
+use crate::report::collect::{Collected, axis_value, distinct_values, value_label};
+use crate::store::PlanRecord;
+
+/// Version of the manifest's shape, for the page.
+const MANIFEST_FORMAT: u32 = 1;
+
+#[derive(Serialize)]
+pub(super) struct Manifest {
+    format: u32,
+    axes: Vec<Axis>,
+    cells: Vec<CellEntry>,
+    references: Vec<ReferenceEntry>,
+    /// FLIP's magma colour map (256 RGB triples, base64), as nv-flip colours error maps.
+    magma: String,
+}
+
+#[derive(Serialize)]
+struct Axis {
+    /// The scene key.
+    key: String,
+    /// Its last component, as plots and sheets label it.
+    name: String,
+    /// The values that occur, in plan order, as text.
+    values: Vec<String>,
+}
+
+#[derive(Serialize)]
+struct CellEntry {
+    /// Index in the plan (the `cell` column of the tables).
+    index: usize,
+    label: String,
+    /// `done`, `damaged`, `failed` or `pending`.
+    status: &'static str,
+    /// Index of the cell's value in each axis's `values` (`null` for an axis the cell lacks).
+    coords: Vec<Option<usize>>,
+    /// Data file (finished cells only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    data: Option<String>,
+    /// Index into `references` when the cell has a usable reference.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    reference: Option<usize>,
+    /// `[width, height]` in pixels.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    size: Option<[usize; 2]>,
+    /// Stops applied before display (the scene's `film.exposure`), also those of the FLIP map.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    exposure: Option<f32>,
+    /// The layers the cell's displayed image sums.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    shows: Option<Vec<&'static str>>,
+    /// Mean FLIP error against the reference (the report's `flip` column).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    flip: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct ReferenceEntry {
+    key: String,
+    data: String,
+}
+
+impl Manifest {
+    /// The manifest of the collected cells and their data files.
+    pub(super) fn new(plan: &PlanRecord, cells: &[Collected], data: &DataIndex) -> Self {
+        let axes: Vec<(String, Vec<serde_json::Value>)> = plan
+            .axes
+            .iter()
+            .map(|key| (key.clone(), distinct_values(cells, key)))
+            .collect();
+        let references: Vec<&String> = data.references.keys().collect();
+        let cells = cells
+            .iter()
+            .enumerate()
+            .map(|(position, c)| {
+                let coords = axes
+                    .iter()
+                    .map(|(key, values)| {
+                        let v = axis_value(&c.planned, key)?;
+                        values.iter().position(|x| *x == v)
+                    })
+                    .collect();
+                let d = data.cells.get(&position);
+                CellEntry {
+                    index: c.planned.index,
+                    label: c.planned.label.clone(),
+                    status: c.status(),
+                    coords,
+                    data: d.map(|d| d.path.clone()),
+                    reference: d
+                        .and_then(|d| d.reference.as_ref())
+                        .and_then(|k| references.iter().position(|r| *r == k)),
+                    size: d.map(|d| d.size),
+                    exposure: d.map(|d| d.exposure),
+                    shows: d.map(|d| d.shows.names()),
+                    flip: c.reference.as_ref().map(|r| r.flip),
+                }
+            })
+            .collect();
+        Manifest {
+            format: MANIFEST_FORMAT,
+            axes: axes
+                .into_iter()
+                .map(|(key, values)| Axis {
+                    name: crate::plan::short_key(&key).to_string(),
+                    key,
+                    values: values.iter().map(value_label).collect(),
+                })
+                .collect(),
+            cells,
+            references: data
+                .references
+                .iter()
+                .map(|(key, path)| ReferenceEntry {
+                    key: key.clone(),
+                    data: path.clone(),
+                })
+                .collect(),
+            magma: super::pack::base64(&nv_flip::magma_lut().to_vec()),
+        }
+    }
+
+    /// The manifest as JSON that is safe inside a `<script>` element: `<` is escaped, so
+    /// no label can close the element.
+    pub(super) fn to_script_json(&self) -> anyhow::Result<String> {
+        Ok(serde_json::to_string(self)?.replace('<', "\\u003c"))
+    }
+}
