@@ -230,7 +230,8 @@ pub fn render_march(
 }
 
 /// Renders a scene with the ray-marching integrator, the multiple-scattering term from the
-/// beam radiance estimate over `beams` ([`super::beam`]) instead of point gathers.
+/// beam radiance estimate over `beams` (Jarosz, Zwicker & Jensen 2008, exact along each
+/// chord) instead of point gathers.
 pub fn render_march_beams(
     scene: &Scene,
     beams: &BeamMap<'_>,
