@@ -10,6 +10,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use crate::backend::{Backend, Local, Slurm, SlurmOptions};
 use crate::plan::Quality;
 use crate::render::CellFilter;
+use crate::tune::{TuneMode, TuneOptions};
 
 /// Parameter studies of volume photon mapping: render TOML grids of scenes and report what
 /// changed and by how much.
@@ -89,6 +90,13 @@ pub(crate) enum Command {
         after_help = "Example:\n  sweep bench --threads 2\n  sweep bench --quick          (a smaller frame on a phantom)"
     )]
     Bench(BenchArgs),
+    /// Find the best settings: Hyperband over resolution and photon count with tree-Parzen
+    /// proposals; Pareto front of error against render time, best scene files per time
+    /// budget, sensitivity per parameter.
+    #[command(
+        after_help = "Examples:\n  sweep tune experiments/tune_thesis.toml --dry-run\n  sweep tune experiments/tune_thesis.toml --output reports/tune_thesis\n  sweep tune experiments/tune_thesis.toml --backend slurm --partition short --time 00:30:00"
+    )]
+    Tune(TuneArgs),
     /// Write a scene for another renderer (Mitsuba 3: XML and a .vol grid).
     #[command(
         after_help = "Example:\n  sweep export experiments/scenes/phantom-head.toml --format mitsuba -o peer/\n  mitsuba -D max_depth=2 peer/phantom-head.xml      (single scattering)"
@@ -253,12 +261,6 @@ pub(crate) struct SlurmArgs {
     /// fits the cluster's MaxArraySize).
     #[arg(long)]
     pub(crate) cells_per_task: Option<usize>,
-    /// Print the sbatch lines and write the scripts without submitting.
-    #[arg(long)]
-    pub(crate) dry_run: bool,
-    /// Block with a progress bar until the collect job has finished.
-    #[arg(long)]
-    pub(crate) wait: bool,
 }
 
 /// `sweep run` (also `sweep FILE.toml`).
@@ -302,6 +304,51 @@ pub(crate) struct RunArgs {
     pub(crate) backend: BackendChoice,
     #[command(flatten)]
     pub(crate) slurm: SlurmArgs,
+    /// Slurm: print the sbatch lines and write the scripts without submitting.
+    #[arg(long)]
+    pub(crate) dry_run: bool,
+    /// Slurm: block with a progress bar until the collect job has finished.
+    #[arg(long)]
+    pub(crate) wait: bool,
+}
+
+/// `sweep tune`.
+#[derive(Debug, Clone, Args)]
+pub(crate) struct TuneArgs {
+    /// Experiment file with a `[tune]` section.
+    pub(crate) experiment: PathBuf,
+    /// Output folder (default: reports/<experiment name>/).
+    #[arg(short, long)]
+    pub(crate) output: Option<PathBuf>,
+    /// Check the file and every searched key, print the Hyperband schedule and what the
+    /// budget allows, and render nothing.
+    #[arg(long)]
+    pub(crate) dry_run: bool,
+    /// Cells rendered at once (local backend; each uses all threads; default 1).
+    #[arg(long, default_value_t = 1)]
+    pub(crate) jobs: usize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub(crate) threads: Option<usize>,
+    /// Hide progress bars.
+    #[arg(long, short)]
+    pub(crate) quiet: bool,
+    /// Skip building the reports (array tasks; `sweep report DIR` builds them later).
+    #[arg(long)]
+    pub(crate) no_report: bool,
+    /// Time limit per render, in seconds (a cell still running after it fails, which
+    /// counts as an infinite error).
+    #[arg(long, value_name = "SECONDS", value_parser = parse_timeout)]
+    pub(crate) cell_timeout: Option<std::time::Duration>,
+    /// Where each rung is rendered (Slurm: one job array per rung, waited for).
+    #[arg(long, value_enum, default_value_t = BackendChoice::Local)]
+    pub(crate) backend: BackendChoice,
+    #[command(flatten)]
+    pub(crate) slurm: SlurmArgs,
+    /// Render only these cells of the output folder's `plan.json` (what a Slurm array
+    /// task of a tune runs).
+    #[arg(long, hide = true)]
+    pub(crate) cells: Option<String>,
 }
 
 /// `sweep report`.
@@ -417,7 +464,12 @@ pub(crate) fn threads(value: Option<usize>) -> Result<Option<usize>> {
 
 impl SlurmArgs {
     /// The validated Slurm options.
-    pub(crate) fn options(&self, cell_timeout: Option<std::time::Duration>) -> SlurmOptions {
+    pub(crate) fn options(
+        &self,
+        cell_timeout: Option<std::time::Duration>,
+        dry_run: bool,
+        wait: bool,
+    ) -> SlurmOptions {
         SlurmOptions {
             partition: self.partition.clone(),
             time: self.time.clone(),
@@ -426,8 +478,8 @@ impl SlurmArgs {
             max_concurrent: self.max_concurrent,
             sbatch_args: self.sbatch_args.clone(),
             cells_per_task: self.cells_per_task,
-            dry_run: self.dry_run,
-            wait: self.wait,
+            dry_run,
+            wait,
             cell_timeout,
         }
     }
@@ -445,19 +497,61 @@ impl RunArgs {
 
     /// The backend, chosen once.
     pub(crate) fn backend(&self) -> Result<Box<dyn Backend>> {
-        anyhow::ensure!(
-            self.jobs >= 1,
-            "--jobs {}: expected at least 1 march group at a time",
-            self.jobs
-        );
-        Ok(match self.backend {
-            BackendChoice::Local => Box::new(Local {
-                jobs: self.jobs,
-                threads: threads(self.threads)?,
-            }),
-            BackendChoice::Slurm => Box::new(Slurm {
-                options: self.slurm.options(self.cell_timeout),
-            }),
+        backend(
+            self.backend,
+            self.jobs,
+            self.threads,
+            self.slurm
+                .options(self.cell_timeout, self.dry_run, self.wait),
+        )
+    }
+}
+
+/// The backend of a choice, with `--jobs` and `--threads` checked.
+fn backend(
+    choice: BackendChoice,
+    jobs: usize,
+    threads: Option<usize>,
+    slurm: SlurmOptions,
+) -> Result<Box<dyn Backend>> {
+    anyhow::ensure!(
+        jobs >= 1,
+        "--jobs {jobs}: expected at least 1 march group at a time"
+    );
+    Ok(match choice {
+        BackendChoice::Local => Box::new(Local {
+            jobs,
+            threads: self::threads(threads)?,
+        }),
+        BackendChoice::Slurm => Box::new(Slurm { options: slurm }),
+    })
+}
+
+impl TuneArgs {
+    /// The validated options of `sweep tune`.
+    pub(crate) fn options(&self) -> Result<TuneOptions> {
+        let mode = match (&self.cells, self.dry_run) {
+            (Some(_), true) => anyhow::bail!("--cells and --dry-run: expected at most one"),
+            (Some(c), false) => {
+                anyhow::ensure!(
+                    self.backend == BackendChoice::Local,
+                    "--cells {c}: renders cells of the plan here; expected --backend local"
+                );
+                TuneMode::Cells(CellFilter::parse_cells(c)?)
+            }
+            (None, true) => TuneMode::DryRun,
+            (None, false) => TuneMode::Search,
+        };
+        // A tune waits for each rung: its results decide the next.
+        let slurm = self.slurm.options(self.cell_timeout, false, true);
+        Ok(TuneOptions {
+            experiment: self.experiment.clone(),
+            output: self.output.clone(),
+            mode,
+            backend: backend(self.backend, self.jobs, self.threads, slurm)?,
+            quiet: self.quiet,
+            report: !self.no_report,
+            cell_timeout: self.cell_timeout,
         })
     }
 }

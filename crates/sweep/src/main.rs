@@ -12,6 +12,7 @@ mod progress;
 mod render;
 mod report;
 mod store;
+mod tune;
 
 use clap::Parser;
 

@@ -9,7 +9,7 @@ fn sweep() -> Command {
 #[test]
 fn every_verb_has_help_with_an_example() {
     for verb in [
-        "datasets", "render", "plan", "run", "report", "status", "bench",
+        "datasets", "render", "plan", "run", "report", "status", "bench", "tune",
     ] {
         let out = sweep().args([verb, "--help"]).output().unwrap();
         assert!(out.status.success(), "{verb} --help");

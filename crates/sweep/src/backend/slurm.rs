@@ -217,6 +217,8 @@ pub(crate) fn plan_submission(
     let tasks = group_cells(&selected, options.cells_per_task, max_array_size());
     let exe = std::env::current_exe().context("locating the sweep executable")?;
     let scripts = Scripts {
+        // A tune's cells are not the grid's: its tasks rebuild them from plan.json.
+        verb: if exp.tune.is_some() { "tune" } else { "run" },
         exe: &exe,
         experiment: &absolute(exp.path()),
         output: &output,
@@ -241,6 +243,7 @@ fn absolute(p: &Path) -> PathBuf {
 
 /// Paths the job scripts name.
 struct Scripts<'a> {
+    verb: &'static str,
     exe: &'a Path,
     experiment: &'a Path,
     output: &'a Path,
@@ -292,7 +295,7 @@ set -u
 CELLS=({cells})
 HASHES=({hashes})
 task=${{SLURM_ARRAY_TASK_ID:?run me as a Slurm array task}}
-{exe} run {exp} --output {out} --cells "${{CELLS[$task]}}" --no-report --quiet{quality}{threads}
+{exe} {verb} {exp} --output {out} --cells "${{CELLS[$task]}}" --no-report --quiet{quality}{threads}
 status=$?
 if [ $status -ne 0 ]; then
   # Keep this task's stderr beside every cell it did not finish, for the report.
@@ -308,6 +311,7 @@ fi
 exit $status
 "#,
             version = VERSION,
+            verb = self.verb,
             exp = shell_quote(&self.experiment.display().to_string()),
             out = shell_quote(&self.output.display().to_string()),
             cells = task_cells.join(" "),

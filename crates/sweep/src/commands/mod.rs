@@ -10,6 +10,8 @@ mod report;
 mod run;
 mod status;
 
+pub(crate) use run::default_output;
+
 use std::process::ExitCode;
 
 use anyhow::Result;
@@ -28,5 +30,6 @@ pub(crate) fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Status(a) => status::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::Export(a) => export::run(&a),
+        Command::Tune(a) => crate::tune::run(&a.options()?),
     }
 }

@@ -16,6 +16,12 @@ pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
     let backend = args.backend()?;
     let quality = args.quality.quality();
     let exp = Experiment::load(&args.experiment)?;
+    anyhow::ensure!(
+        exp.tune.is_none(),
+        "{}: has a [tune] section, whose cells `sweep tune {}` plans; `sweep run` would replace that plan with the base grid",
+        args.experiment.display(),
+        args.experiment.display()
+    );
     let (cells, hashes) = exp.plan_with_hashes(quality, args.yes)?;
     let output = args
         .output

@@ -150,7 +150,11 @@ impl Experiment {
     }
 
     /// The scene table of one cell: base scene, `[set]`, quality preset, axis values.
-    fn cell_table(&self, axes: &[(String, Value)], quality: Quality) -> Result<(Table, PathBuf)> {
+    pub(crate) fn cell_table(
+        &self,
+        axes: &[(String, Value)],
+        quality: Quality,
+    ) -> Result<(Table, PathBuf)> {
         let scene_file = axes
             .iter()
             .find(|(k, _)| k == "scene")
@@ -182,7 +186,13 @@ impl Experiment {
         Ok((table, base_dir))
     }
 
-    fn cell(&self, index: usize, axes: Vec<(String, Value)>, quality: Quality) -> Result<CellSpec> {
+    /// One validated cell: the base scene with `[set]`, the quality preset and `axes`.
+    pub(crate) fn cell(
+        &self,
+        index: usize,
+        axes: Vec<(String, Value)>,
+        quality: Quality,
+    ) -> Result<CellSpec> {
         let (table, base_dir) = self.cell_table(&axes, quality)?;
         let describe = || {
             axes.iter()

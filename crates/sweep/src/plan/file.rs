@@ -37,6 +37,8 @@ pub(crate) struct ExperimentFile {
     pub(crate) plots: Vec<PlotSpec>,
     #[serde(default)]
     pub(crate) sheets: Vec<SheetSpec>,
+    /// `sweep tune`: objective, budget, fidelity and search space.
+    pub(crate) tune: Option<crate::tune::TuneFile>,
 }
 
 fn default_max_cells() -> usize {

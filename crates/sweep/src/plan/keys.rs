@@ -29,6 +29,21 @@ pub(crate) fn flatten_axes(table: &Table, prefix: &str, out: &mut Vec<(String, V
     flatten(table, prefix, &|_, t| t.contains_key("from"), out);
 }
 
+/// Flattens a `[tune.space]` table into dotted keys; leaves are tables with `range`, `int`
+/// or `choices`.
+pub(crate) fn flatten_space(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {
+    flatten(
+        table,
+        prefix,
+        &|_, t| {
+            ["range", "int", "choices"]
+                .iter()
+                .any(|k| t.contains_key(*k))
+        },
+        out,
+    );
+}
+
 /// Flattens nested override tables into `(dotted key, value)`. Inline values of keys that
 /// take a table (`phantom`, `box`) are set whole.
 pub(crate) fn flatten_set(table: &Table, prefix: &str, out: &mut Vec<(String, Value)>) {

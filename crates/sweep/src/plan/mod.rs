@@ -59,16 +59,17 @@ use volphot::{Method, toml_error};
 
 use axes::Dimension;
 use file::{ExperimentFile, QualityPreset};
-use source::Source;
 
 pub(crate) use cells::CellSpec;
 pub(crate) use file::{
     CompareKind, CompareSpec, PlotSpec, ReferenceMethod, ReferenceSpec, SheetLayer, SheetSpec,
 };
-pub(crate) use keys::{flatten_set, short_key, toml_to_json, value_text};
+pub(crate) use keys::{flatten_set, flatten_space, short_key, toml_to_json, value_text};
 pub(crate) use reference::{reference_key, reference_params};
+pub(crate) use source::Source;
 
 use crate::store::{PlanRecord, PlannedCell, VERSION, cell_hash};
+use crate::tune::TuneSpec;
 
 /// The most cells one run plans (each is validated and hashed, and `plan.json` lists them).
 pub(crate) const MAX_PLANNED_CELLS: usize = 1_000_000;
@@ -125,6 +126,9 @@ pub(crate) struct Experiment {
     pub(crate) plots: Vec<PlotSpec>,
     /// Contact sheets (empty: automatic).
     pub(crate) sheets: Vec<SheetSpec>,
+    /// The `[tune]` section: its `[axes]` grid are the contexts every configuration is
+    /// evaluated on.
+    pub(crate) tune: Option<TuneSpec>,
     base: BaseScene,
     set: Vec<(String, Value)>,
     dimensions: Vec<Dimension>,
@@ -166,17 +170,30 @@ impl Experiment {
         checks::reference(&source, file.reference.as_ref())?;
         checks::compare(&axis_names, &file.compare, file.reference.is_some())?;
         checks::figures(&axis_names, &file.plots, &file.sheets)?;
+        let tune = file
+            .tune
+            .as_ref()
+            .map(|t| TuneSpec::from_file(&source, t))
+            .transpose()?;
+        if tune.is_some() && file.reference.is_none() {
+            return Err(source.error(
+                "tune",
+                "[tune] needs a [reference] section: the objective measures errors against it (e.g. [reference] method = \"path\", spp = 256)",
+            ));
+        }
         Ok(Experiment {
             name,
             description: file.description,
             sha256: volphot::sha256_bytes(source.text.as_bytes()),
             source,
             max_cells: file.max_cells,
-            share: file.share,
+            // A tune renders each cell alone, so its recorded time is its own.
+            share: file.share && tune.is_none(),
             reference: file.reference,
             compare: file.compare,
             plots: file.plots,
             sheets: file.sheets,
+            tune,
             base,
             set,
             dimensions,
@@ -199,11 +216,16 @@ impl Experiment {
             .unwrap_or_else(|| PathBuf::from("."))
     }
 
-    /// Axis keys in grid order.
+    /// Axis keys in grid order (a tune's cells add the searched and fidelity keys).
     pub(crate) fn axis_keys(&self, quality: Quality) -> Vec<String> {
-        self.dimensions_for(quality)
+        let mut keys: Vec<String> = self
+            .dimensions_for(quality)
             .map(|d| d.iter().flat_map(|d| d.keys.clone()).collect())
-            .unwrap_or_default()
+            .unwrap_or_default();
+        if let Some(tune) = &self.tune {
+            keys.extend(tune.axis_keys());
+        }
+        keys
     }
 
     fn preset(&self, quality: Quality) -> Option<&QualityPreset> {

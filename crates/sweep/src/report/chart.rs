@@ -17,6 +17,8 @@ pub(crate) struct Series {
     pub(crate) points: Vec<(f64, f64)>,
     /// The plan indices of the cells behind each point (a point may average several).
     pub(crate) cells: Vec<Vec<usize>>,
+    /// Draw the points without joining them.
+    pub(crate) points_only: bool,
 }
 
 /// Where a drawn point landed in the 900×560 image, for making it clickable.
@@ -155,14 +157,16 @@ where
                     at: chart.backend_coord(p),
                 }));
                 let pts: Vec<(f64, f64)> = drawn.into_iter().map(|(_, p)| p).collect();
-                chart
-                    .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
-                    .map_err(err)?
-                    .label(s.name.clone())
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-                    });
-                chart
+                if !s.points_only {
+                    chart
+                        .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
+                        .map_err(err)?
+                        .label(s.name.clone())
+                        .legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                        });
+                }
+                let points = chart
                     .draw_series(PointSeries::of_element(
                         pts.iter().copied(),
                         4,
@@ -170,6 +174,11 @@ where
                         &|c, s, st| EmptyElement::at(c) + Circle::new((0, 0), s, st),
                     ))
                     .map_err(err)?;
+                if s.points_only {
+                    points
+                        .label(s.name.clone())
+                        .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+                }
             }
             if plot.series.len() > 1 || !plot.series.first().is_some_and(|s| s.name.is_empty()) {
                 chart
@@ -268,11 +277,13 @@ mod tests {
                     name: "t = 80".into(),
                     points: vec![(25.0, 0.1), (50.0, 0.05), (150.0, 0.01)],
                     cells: vec![vec![0], vec![1], vec![2]],
+                    points_only: false,
                 },
                 Series {
                     name: "t = 6".into(),
                     points: vec![(25.0, 0.02), (50.0, 0.01), (150.0, 0.0)],
                     cells: vec![vec![3], vec![4], vec![5]],
+                    points_only: true,
                 },
             ],
             log_x: true,

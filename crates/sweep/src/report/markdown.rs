@@ -101,9 +101,20 @@ impl Report<'_> {
             plan.experiment_sha256
         );
         let _ = writeln!(s, "- command: `{}`", plan.command.join(" "));
+        if root.join("tune").join("report.md").is_file() {
+            let _ = writeln!(
+                s,
+                "- tune: [tune/report.md](tune/report.md): best settings per time budget, the Pareto front of error against render time, sensitivity per parameter"
+            );
+        }
         let _ = writeln!(
             s,
-            "- rerun: `sweep run {} --output {}` (finished cells are skipped); regenerate this report: `sweep report {}`\n",
+            "- rerun: `sweep {} {} --output {}` (finished cells are skipped); regenerate this report: `sweep report {}`\n",
+            if self.experiment.tune.is_some() {
+                "tune"
+            } else {
+                "run"
+            },
             plan.experiment_file.display(),
             root.display(),
             root.display()

@@ -17,6 +17,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
+pub(crate) use chart::{Plot, Series, write_plot};
 use collect::collect;
 use table::{CsvExporter, Exporter, JsonExporter, Table, cells_table};
 

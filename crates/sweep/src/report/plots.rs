@@ -17,6 +17,10 @@ fn plot_specs(plan: &PlanRecord, cells: &[Collected], experiment: &Experiment) -
     if !experiment.plots.is_empty() {
         return experiment.plots.clone();
     }
+    if experiment.tune.is_some() {
+        // A tune's cells are scattered, not a grid: its own report plots the front.
+        return Vec::new();
+    }
     let has_reference = cells.iter().any(|c| c.reference.is_some());
     let mut specs = Vec::new();
     for x in &plan.axes {
@@ -171,6 +175,7 @@ fn series(spec: &PlotSpec, column: &MetricColumn, cells: &[&Collected]) -> Vec<S
                 name,
                 points,
                 cells,
+                points_only: false,
             }
         })
         .collect()

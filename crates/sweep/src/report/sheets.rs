@@ -11,7 +11,7 @@ use crate::store::{OutputDir, PlanRecord};
 
 /// The experiment's sheets, or by default `total` and `multiple` over the first two axes.
 fn sheet_specs(plan: &PlanRecord, experiment: &Experiment) -> Vec<SheetSpec> {
-    if !experiment.sheets.is_empty() {
+    if !experiment.sheets.is_empty() || experiment.tune.is_some() {
         return experiment.sheets.clone();
     }
     let mut specs = Vec::new();
@@ -37,6 +37,10 @@ pub(crate) fn contact_sheets(
     figures: &mut Figures,
 ) -> Result<()> {
     let specs = sheet_specs(plan, experiment);
+    if experiment.tune.is_some() && specs.is_empty() {
+        // A tune's cells are scattered, not a grid; its report links the best scenes.
+        return Ok(());
+    }
     if specs.is_empty() {
         return single_image(out, plan, cells, figures);
     }

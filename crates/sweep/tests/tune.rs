@@ -1,0 +1,418 @@
+//! `sweep tune` end to end on a tiny phantom: it finds the optimum of a space the test
+//! sweeps exhaustively with a fraction of the renders, proposes the same configurations
+//! for the same seed, renders nothing on a rerun, and rejects bad `[tune]` sections with
+//! errors that name the key.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn sweep() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_sweep"))
+}
+
+fn run_ok(cmd: &mut Command) -> Output {
+    let out = cmd.output().expect("sweep runs");
+    assert!(
+        out.status.success(),
+        "{cmd:?} failed ({}):\nstdout:\n{}\nstderr:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+fn scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../experiments/scenes")
+        .join(name)
+}
+
+/// The exhaustively swept key and its values.
+const NUSED: std::ops::RangeInclusive<i64> = 2..=81;
+/// Target resolution of the search test.
+const SIDE: u32 = 24;
+
+/// An experiment on the engine phantom at `side`² with the given extra tables.
+fn experiment(dir: &Path, name: &str, side: u32, tables: &str) -> PathBuf {
+    let path = dir.join(format!("{name}.toml"));
+    let text = format!(
+        r#"name = "{name}"
+scene = "{}"
+[set]
+"volume.phantom.resolution" = [24, 24, 24]
+"camera.resolution" = [{side}, {side}]
+"integrator.volume_photons" = 3000
+"integrator.maxdist" = 0.3
+"integrator.stepsize" = 0.004
+"sigma.t" = 60
+[reference]
+spp = 32
+{tables}
+"#,
+        scene("phantom-engine.toml").display()
+    );
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn tune_tables(seed: u64, renders: usize, side: u32, space: &str) -> String {
+    let min = side / 2;
+    format!(
+        r#"
+[tune]
+seed = {seed}
+objective = "rmse"
+budget = {{ renders = {renders} }}
+[tune.fidelity]
+resolution = [{side}, {side}]
+min_resolution = [{min}, {min}]
+min_photon_fraction = 0.5
+levels = 2
+eta = 3
+[tune.space]
+{space}
+"#
+    )
+}
+
+/// `(header, rows)` of a CSV file.
+fn csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text
+        .lines()
+        .map(|l| l.split(',').map(str::to_string).collect::<Vec<_>>());
+    let header = lines.next().expect("header");
+    (header, lines.collect())
+}
+
+fn col(header: &[String], name: &str) -> usize {
+    header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("no column {name} in {header:?}"))
+}
+
+fn finished_cells(out: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(out.join("cells"))
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.path().join("cell.json"))
+                .filter(|p| p.is_file())
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+#[test]
+fn tune_finds_the_exhaustive_optimum_with_a_fifth_of_the_renders() {
+    let tmp = tempfile::tempdir().unwrap();
+    // The exhaustive sweep: every nused at the target resolution, full photons.
+    let values: Vec<String> = NUSED.map(|n| n.to_string()).collect();
+    let grid = experiment(
+        tmp.path(),
+        "grid",
+        SIDE,
+        &format!(
+            "max_cells = 1000\n[axes]\n\"integrator.nused\" = [{}]\n",
+            values.join(", ")
+        ),
+    );
+    let grid_out = tmp.path().join("grid");
+    run_ok(
+        sweep()
+            .args(["run", "--quiet", "--threads", "2", "--no-report"])
+            .arg(&grid)
+            .arg("-o")
+            .arg(&grid_out),
+    );
+    run_ok(sweep().arg("report").arg(&grid_out));
+    let (h, rows) = csv(&grid_out.join("cells.csv"));
+    let (nused, rmse) = (col(&h, "integrator.nused"), col(&h, "rmse"));
+    let exhaustive: Vec<(i64, f64)> = rows
+        .iter()
+        .map(|r| (r[nused].parse().unwrap(), r[rmse].parse().unwrap()))
+        .collect();
+    assert_eq!(exhaustive.len(), values.len());
+    let (best_n, best) = exhaustive
+        .iter()
+        .copied()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap();
+    let worst = exhaustive.iter().map(|e| e.1).fold(0.0, f64::max);
+    // The landscape is not flat, so finding its optimum means something.
+    assert!(
+        worst > 1.5 * best,
+        "rmse {best} (nused {best_n}) to {worst}"
+    );
+
+    // The tune: at most 20 % of the exhaustive renders, low levels included.
+    let budget = values.len() / 5;
+    let space = format!(
+        "\"integrator.nused\" = {{ int = [{}, {}] }}",
+        NUSED.start(),
+        NUSED.end()
+    );
+    let tune = experiment(
+        tmp.path(),
+        "tune",
+        SIDE,
+        &tune_tables(3, budget, SIDE, &space),
+    );
+    let out = tmp.path().join("tune");
+    run_ok(
+        sweep()
+            .args(["tune", "--quiet", "--threads", "2"])
+            .arg(&tune)
+            .arg("-o")
+            .arg(&out),
+    );
+    let renders = finished_cells(&out).len();
+    assert!(renders <= budget, "{renders} renders > {budget}");
+    let (h, rows) = csv(&out.join("tune/pareto.csv"));
+    let (key, error) = (col(&h, "integrator.nused"), col(&h, "error"));
+    let (found_n, found): (i64, f64) = rows
+        .iter()
+        .map(|r| (r[key].parse().unwrap(), r[error].parse::<f64>().unwrap()))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .expect("a Pareto front");
+    // Same cell, same error: the tune's evaluation is the grid's cell.
+    let grid_error = exhaustive.iter().find(|e| e.0 == found_n).unwrap().1;
+    assert!(
+        (found - grid_error).abs() <= 1e-6 * grid_error,
+        "{found} vs grid {grid_error}"
+    );
+    // Stated tolerance: within 5 % of the exhaustive optimum's RMSE.
+    assert!(
+        found <= 1.05 * best,
+        "tune found nused {found_n} with rmse {found}, the optimum is nused {best_n} with {best} ({renders} renders of {budget})"
+    );
+    eprintln!(
+        "tune: nused {found_n} rmse {found:.5} with {renders} renders; exhaustive: nused {best_n} rmse {best:.5} with {} renders",
+        values.len()
+    );
+    // Outputs: best scene file, sensitivity, the report links the tune report.
+    let best_scene = std::fs::read_to_string(out.join("tune/best.toml")).unwrap();
+    assert!(
+        best_scene.contains(&format!("nused = {found_n}")),
+        "{best_scene}"
+    );
+    assert!(
+        std::fs::read_to_string(out.join("report.md"))
+            .unwrap()
+            .contains("tune/report.md")
+    );
+    assert!(out.join("tune/pareto.svg").is_file() && out.join("tune/pareto.png").is_file());
+    let (h, rows) = csv(&out.join("tune/sensitivity.csv"));
+    assert_eq!(rows[0][col(&h, "parameter")], "integrator.nused");
+}
+
+/// A 2-D space on a cheap scene: same seed, same proposals and ids; another seed, others.
+#[test]
+fn same_seed_same_proposals_and_a_rerun_renders_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let space = "\"integrator.nused\" = { int = [2, 60], scale = \"log\" }\n\"integrator.maxdist\" = { range = [0.05, 0.5] }";
+    let mut runs = Vec::new();
+    for (name, seed) in [("a", 5), ("b", 5), ("c", 6)] {
+        let tables = tune_tables(seed, 14, 12, space);
+        let exp = experiment(tmp.path(), "seeded", 12, &tables);
+        let out = tmp.path().join(name);
+        run_ok(
+            sweep()
+                .args(["tune", "--quiet", "--threads", "2", "--no-report"])
+                .arg(&exp)
+                .arg("-o")
+                .arg(&out),
+        );
+        runs.push(out);
+    }
+    let proposals = |out: &Path| {
+        let (h, rows) = csv(&out.join("tune/observations.csv"));
+        let keep: Vec<usize> = [
+            "id",
+            "level",
+            "integrator.nused",
+            "integrator.maxdist",
+            "error",
+        ]
+        .iter()
+        .map(|k| col(&h, k))
+        .collect();
+        rows.iter()
+            .map(|r| keep.iter().map(|&i| r[i].clone()).collect::<Vec<_>>())
+            .collect::<Vec<_>>()
+    };
+    let (a, b, c) = (
+        proposals(&runs[0]),
+        proposals(&runs[1]),
+        proposals(&runs[2]),
+    );
+    assert!(a.len() >= 6, "{a:?}");
+    assert_eq!(a, b, "same seed");
+    assert_ne!(a, c, "another seed");
+
+    // Resume: the same command again renders nothing and decides the same.
+    let first = finished_cells(&runs[0]);
+    let mtimes: Vec<_> = first
+        .iter()
+        .map(|p| std::fs::metadata(p).unwrap().modified().unwrap())
+        .collect();
+    let exp = tmp.path().join("seeded.toml");
+    std::fs::write(
+        &exp,
+        std::fs::read_to_string(&exp)
+            .unwrap()
+            .replace("seed = 6", "seed = 5"),
+    )
+    .unwrap();
+    run_ok(
+        sweep()
+            .args(["tune", "--quiet", "--no-report"])
+            .arg(&exp)
+            .arg("-o")
+            .arg(&runs[0]),
+    );
+    assert_eq!(finished_cells(&runs[0]), first);
+    let again: Vec<_> = first
+        .iter()
+        .map(|p| std::fs::metadata(p).unwrap().modified().unwrap())
+        .collect();
+    assert_eq!(mtimes, again, "no cell was rendered again");
+    assert_eq!(proposals(&runs[0]), a);
+    let report = std::fs::read_to_string(runs[0].join("tune/report.md")).unwrap();
+    assert!(report.contains("(0 rendered by the last run"), "{report}");
+}
+
+#[test]
+fn bad_tune_sections_are_located_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let good_space = "\"integrator.nused\" = { int = [2, 60] }";
+    let cases: Vec<(String, &str)> = vec![
+        (
+            tune_tables(1, 10, SIDE, good_space).replace("\"rmse\"", "\"psnr\""),
+            "unknown metric `psnr`",
+        ),
+        (
+            tune_tables(1, 10, SIDE, good_space)
+                .replace("{ renders = 10 }", "{ renders = 10, seconds = 5 }"),
+            "exactly one of `renders`",
+        ),
+        (
+            tune_tables(1, 10, SIDE, "\"integrator.nused\" = { int = [60, 2] }"),
+            "int [60, 2]: expected lo < hi",
+        ),
+        (
+            tune_tables(
+                1,
+                10,
+                SIDE,
+                "\"integrator.maxdist\" = { range = [0, 0.5], scale = \"log\" }",
+            ),
+            "lo > 0",
+        ),
+        (
+            tune_tables(1, 10, SIDE, "\"integrator.nused\" = { choices = [5] }"),
+            "at least two values",
+        ),
+        (
+            tune_tables(1, 10, SIDE, "\"integrator.nused\" = { between = [1, 2] }"),
+            "integrator.nused",
+        ),
+        (
+            tune_tables(
+                1,
+                10,
+                SIDE,
+                "\"camera.resolution\" = { choices = [[8, 8], [16, 16]] }",
+            ),
+            "cannot be searched",
+        ),
+        (
+            tune_tables(1, 10, SIDE, good_space).replace("levels = 2", "levels = 9"),
+            "levels in 1..=6",
+        ),
+        (
+            tune_tables(1, 10, SIDE, good_space)
+                .replace("min_resolution = [12, 12]", "min_resolution = [48, 48]"),
+            "min_resolution",
+        ),
+        (
+            tune_tables(1, 10, SIDE, "\"integrator.nsued\" = { int = [2, 60] }"),
+            "nsued",
+        ),
+        (
+            tune_tables(1, 10, SIDE, "\"integrator.nused\" = { int = [0, 60] }"),
+            "nused",
+        ),
+        (
+            tune_tables(1, 2, SIDE, good_space),
+            "budget allows no bracket",
+        ),
+    ];
+    for (i, (tables, expected)) in cases.iter().enumerate() {
+        let exp = experiment(tmp.path(), &format!("bad{i}"), SIDE, tables);
+        let out = sweep()
+            .args(["tune", "--dry-run"])
+            .arg(&exp)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "case {i} passed:\n{tables}");
+        assert!(
+            err.contains(expected),
+            "case {i}: `{err}` lacks `{expected}`"
+        );
+        assert!(
+            err.contains(&format!("bad{i}.toml")),
+            "case {i}: `{err}` names no file"
+        );
+    }
+    // Without a reference there is nothing to measure against.
+    let exp = experiment(
+        tmp.path(),
+        "noref",
+        SIDE,
+        &tune_tables(1, 10, SIDE, good_space),
+    );
+    let text = std::fs::read_to_string(&exp)
+        .unwrap()
+        .replace("[reference]\nspp = 32\n", "");
+    std::fs::write(&exp, text).unwrap();
+    let out = sweep()
+        .args(["tune", "--dry-run"])
+        .arg(&exp)
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("needs a [reference]"));
+    // `sweep run` refuses a tune experiment; `sweep tune` a grid.
+    let out = sweep().args(["run"]).arg(&exp).output().unwrap();
+    assert!(!out.status.success());
+}
+
+#[test]
+fn the_thesis_study_plans() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/tune_thesis.toml");
+    let tmp = tempfile::tempdir().unwrap();
+    let out = run_ok(
+        sweep()
+            .args(["tune", "--dry-run"])
+            .arg(&file)
+            .arg("-o")
+            .arg(tmp.path()),
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    for expected in [
+        "6 key(s) on 2 context(s)",
+        "level 2: 512×512",
+        "bracket s=2: 9 × level 0",
+        "constraint: at most 60 s",
+    ] {
+        assert!(text.contains(expected), "`{expected}` not in:\n{text}");
+    }
+    assert!(
+        std::fs::read_dir(tmp.path()).unwrap().next().is_none(),
+        "a dry run writes nothing"
+    );
+}
