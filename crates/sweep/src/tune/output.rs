@@ -97,7 +97,7 @@ fn csv_bytes(rows: Vec<Vec<String>>) -> Result<Vec<u8>> {
     for row in rows {
         w.write_record(&row)?;
     }
-    Ok(w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?)
+    w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))
 }
 
 fn number(v: f64) -> String {
@@ -554,9 +554,8 @@ impl TuneReport<'_> {
                 None => {
                     let _ = writeln!(
                         s,
-                        "| {budget} | none evaluated at the target level fits |{} | |{} |",
-                        " |".repeat(1),
-                        " |".repeat(self.spec.space.len())
+                        "| {budget} | none evaluated at the target level fits | – | – |{} – |",
+                        " – |".repeat(self.spec.space.len())
                     );
                 }
             }
