@@ -409,7 +409,7 @@ fn the_thesis_study_plans() {
     );
     let text = String::from_utf8_lossy(&out.stdout);
     for expected in [
-        "6 key(s) on 2 context(s)",
+        "7 key(s) on 2 context(s)",
         "level 2: 512×512",
         "bracket s=2: 9 × level 0",
         "constraint: at most 60 s",

@@ -221,8 +221,14 @@ impl Search<'_> {
         for c in live {
             let cells = (0..contexts)
                 .map(|ctx| self.cells.cell(ctx, &c.values, level))
-                .collect::<Result<Vec<usize>>>()?;
-            per_config.push(cells);
+                .collect::<Result<Vec<usize>>>();
+            // A combination the renderer rejects (e.g. an estimator with an estimate it
+            // cannot use) is a failed evaluation, not the end of the search.
+            per_config.push(cells.unwrap_or_else(|e| {
+                self.bar
+                    .suspend(|| eprintln!("{}: not a valid scene, counted as failed: {e:#}", c.id));
+                Vec::new()
+            }));
         }
         self.dispatch(&per_config.concat())?;
         let mut losses = Vec::with_capacity(live.len());
