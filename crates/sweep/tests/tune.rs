@@ -288,6 +288,33 @@ fn same_seed_same_proposals_and_a_rerun_renders_nothing() {
     assert_eq!(proposals(&runs[0]), a);
     let report = std::fs::read_to_string(runs[0].join("tune/report.md")).unwrap();
     assert!(report.contains("(0 rendered by the last run"), "{report}");
+
+    // What a Slurm array task of the tune runs: cells of plan.json, rebuilt from the
+    // experiment; a removed cell comes back.
+    let lost = first[2].parent().unwrap().to_path_buf();
+    std::fs::remove_dir_all(&lost).unwrap();
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(runs[0].join("plan.json")).unwrap()).unwrap();
+    let hash = lost.file_name().unwrap().to_string_lossy().into_owned();
+    let index = plan["cells"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["hash"] == hash.as_str())
+        .map(|c| c["index"].to_string())
+        .unwrap();
+    run_ok(
+        sweep()
+            .args(["tune", "--quiet", "--no-report", "--cells", &index])
+            .arg(&exp)
+            .arg("-o")
+            .arg(&runs[0]),
+    );
+    assert_eq!(
+        finished_cells(&runs[0]),
+        first,
+        "cell {index} ({hash}) rendered again"
+    );
 }
 
 #[test]

@@ -626,6 +626,41 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_tunes_array_tasks_rebuild_its_cells_with_sweep_tune() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = format!(
+            "{}[camera]\nresolution = [8, 8]\n",
+            volphot::test_util::SMALL_SCENE
+        );
+        std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+        let grid =
+            "scene = \"s.toml\"\n[axes]\n\"integrator.nused\" = [5, 9]\n[reference]\nspp = 4\n";
+        let tune = format!(
+            "{grid}[tune]\nobjective = \"rmse\"\nbudget = {{ renders = 4 }}\n[tune.fidelity]\nresolution = [8, 8]\nlevels = 1\n[tune.space]\n\"integrator.maxdist\" = {{ range = [0.1, 0.5] }}\n"
+        );
+        for (name, text, verb) in [
+            ("grid", grid.to_string(), " run "),
+            ("tune", tune, " tune "),
+        ] {
+            let path = dir.path().join(format!("{name}.toml"));
+            std::fs::write(&path, text).unwrap();
+            let exp = Experiment::load(&path).unwrap();
+            let cells = exp.plan(Quality::Default).unwrap();
+            let options = SlurmOptions::default();
+            let plan = plan_submission(&exp, &cells, dir.path(), &options, Quality::Default, None)
+                .unwrap();
+            let line = plan
+                .array_script
+                .lines()
+                .find(|l| l.contains("--cells"))
+                .unwrap()
+                .to_string();
+            assert!(line.contains(verb), "{name}: {line}");
+            assert!(line.contains("--no-report"), "{name}: {line}");
+        }
+    }
+
+    #[test]
     fn ranges_compress() {
         assert_eq!(compress_ranges(&[0, 1, 2, 5, 7, 8]), "0-2,5,7-8");
         assert_eq!(compress_ranges(&[]), "");

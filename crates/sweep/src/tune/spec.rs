@@ -23,7 +23,7 @@
 //! "integrator.nused" = { int = [20, 1000], scale = "log" }
 //! "integrator.maxdist" = { range = [0.01, 0.5], scale = "log" }
 //! "sigma.albedo" = { range = [0.5, 0.95] }
-//! "integrator.estimate" = { choices = ["knn", "fixed"] }
+//! "integrator.estimator" = { choices = ["points", "beam"] }
 //!
 //! [tune.constraints]
 //! seconds_per_frame = 60             # at the target resolution
