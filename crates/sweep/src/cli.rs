@@ -317,7 +317,7 @@ pub(crate) struct RunArgs {
 pub(crate) struct TuneArgs {
     /// Experiment file with a `[tune]` section.
     pub(crate) experiment: PathBuf,
-    /// Output folder (default: reports/<experiment name>/).
+    /// Output folder (default: `reports/<experiment name>/`).
     #[arg(short, long)]
     pub(crate) output: Option<PathBuf>,
     /// Check the file and every searched key, print the Hyperband schedule and what the
