@@ -46,6 +46,13 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
     let start = std::time::Instant::now();
     let exp = Experiment::load(&args.experiment)?;
     let quality = args.quality.quality();
+    if exp.tune.is_some() {
+        println!(
+            "{}: has a [tune] section; these are the contexts every configuration is rendered on, and `sweep tune {} --dry-run` shows the search",
+            exp.name,
+            args.experiment.display()
+        );
+    }
     let size = exp.grid_size(quality)?;
     if size > exp.max_cells && !args.yes {
         println!(
