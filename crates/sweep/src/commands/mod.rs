@@ -10,8 +10,6 @@ mod report;
 mod run;
 mod status;
 
-pub(crate) use run::default_output;
-
 use std::process::ExitCode;
 
 use anyhow::Result;

@@ -97,7 +97,7 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
         );
     }
     if args.slurm {
-        let out = super::run::default_output(&exp, quality);
+        let out = crate::plan::default_output(&exp, quality);
         let script = crate::backend::plan_submission(
             &exp,
             &cells,

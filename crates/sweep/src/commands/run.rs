@@ -1,13 +1,12 @@
 //! `sweep run` (and `sweep FILE.toml`).
 
-use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Result;
 
 use crate::backend::Run;
 use crate::cli::RunArgs;
-use crate::plan::{Experiment, Quality};
+use crate::plan::Experiment;
 use crate::store::OutputDir;
 
 /// Plans the experiment and hands it to the chosen backend.
@@ -26,7 +25,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
     let output = args
         .output
         .clone()
-        .unwrap_or_else(|| default_output(&exp, quality));
+        .unwrap_or_else(|| crate::plan::default_output(&exp, quality));
     let outcome = backend.execute(&Run {
         experiment: &exp,
         cells: &cells,
@@ -39,14 +38,4 @@ pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
         cell_timeout: args.cell_timeout,
     })?;
     Ok(outcome.exit_code())
-}
-
-/// The default output folder: `reports/<experiment name>/` (with a quality suffix).
-pub(crate) fn default_output(exp: &Experiment, quality: Quality) -> std::path::PathBuf {
-    let name = match quality {
-        Quality::Default => exp.name.clone(),
-        Quality::Quick => format!("{}-quick", exp.name),
-        Quality::Paper => format!("{}-paper", exp.name),
-    };
-    Path::new("reports").join(name)
 }

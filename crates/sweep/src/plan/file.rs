@@ -38,7 +38,7 @@ pub(crate) struct ExperimentFile {
     #[serde(default)]
     pub(crate) sheets: Vec<SheetSpec>,
     /// `sweep tune`: objective, budget, fidelity and search space.
-    pub(crate) tune: Option<crate::tune::TuneFile>,
+    pub(crate) tune: Option<super::TuneFile>,
 }
 
 fn default_max_cells() -> usize {

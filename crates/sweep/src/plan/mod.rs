@@ -49,6 +49,7 @@ mod fuzz;
 mod keys;
 mod reference;
 mod source;
+mod tune;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -67,9 +68,13 @@ pub(crate) use file::{
 pub(crate) use keys::{flatten_set, flatten_space, short_key, toml_to_json, value_text};
 pub(crate) use reference::{reference_key, reference_params};
 pub(crate) use source::Source;
+#[cfg(test)]
+pub(crate) use tune::Metric;
+pub(crate) use tune::{
+    Budget, Fidelity, PHOTONS_KEY, Param, ParamKind, Proposal, RESOLUTION_KEY, TuneFile, TuneSpec,
+};
 
 use crate::store::{PlanRecord, PlannedCell, VERSION, cell_hash};
-use crate::tune::TuneSpec;
 
 /// The most cells one run plans (each is validated and hashed, and `plan.json` lists them).
 pub(crate) const MAX_PLANNED_CELLS: usize = 1_000_000;
@@ -370,6 +375,16 @@ fn base_scene(source: &Source, file: &ExperimentFile) -> Result<BaseScene> {
             Ok(BaseScene::Inline(Table::new()))
         }
     }
+}
+
+/// The default output folder: `reports/<experiment name>/` (with a quality suffix).
+pub(crate) fn default_output(exp: &Experiment, quality: Quality) -> std::path::PathBuf {
+    let name = match quality {
+        Quality::Default => exp.name.clone(),
+        Quality::Quick => format!("{}-quick", exp.name),
+        Quality::Paper => format!("{}-paper", exp.name),
+    };
+    std::path::Path::new("reports").join(name)
 }
 
 #[cfg(test)]

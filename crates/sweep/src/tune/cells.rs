@@ -7,9 +7,9 @@ use anyhow::Result;
 use toml::Value;
 use volphot::Film;
 
-use super::spec::{PHOTONS_KEY, RESOLUTION_KEY, TuneSpec};
 use crate::analyse::{METRIC_COLUMNS, compare_with_reference};
 use crate::plan::{CellSpec, Experiment, Quality, reference_key};
+use crate::plan::{PHOTONS_KEY, RESOLUTION_KEY, TuneSpec};
 use crate::store::{
     CellRecord, OutputDir, cell_hash, read_record, read_reference_metrics, read_reference_record,
 };

@@ -1,7 +1,7 @@
 //! Hyperband (Li et al., JMLR 2018): brackets of synchronous successive halving over
 //! fidelity levels, and what a level means for a render (resolution, photon fraction).
 
-use super::spec::Fidelity;
+use crate::plan::Fidelity;
 
 /// One rung of a bracket: how many configurations are evaluated at which level.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

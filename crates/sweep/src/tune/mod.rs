@@ -20,12 +20,9 @@ mod output;
 mod propose;
 mod search;
 mod space;
-mod spec;
 
 use std::path::PathBuf;
 use std::time::Duration;
-
-pub(crate) use spec::{TuneFile, TuneSpec};
 
 use crate::backend::Backend;
 use crate::render::CellFilter;

@@ -12,8 +12,8 @@ use super::analysis::{bins_for, epsilon_squared, pareto_front, spearman};
 use super::cells::TuneCells;
 use super::hyperband::{bracket_renders, schedule};
 use super::search::Evaluation;
-use super::spec::{Budget, ParamKind, Proposal, TuneSpec};
 use crate::plan::Experiment;
+use crate::plan::{Budget, ParamKind, Proposal, TuneSpec};
 use crate::report::{Plot, Series, write_plot};
 use crate::store::OutputDir;
 

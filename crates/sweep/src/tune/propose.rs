@@ -7,7 +7,7 @@ use anyhow::Result;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-use super::spec::{Proposal, TuneSpec};
+use crate::plan::{Proposal, TuneSpec};
 
 /// How a configuration was proposed (sensitivity uses the uniform ones).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -138,7 +138,7 @@ fn fit(spec: &TuneSpec, history: &[Observed<'_>], level: u32) -> Result<Vec<tpe:
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tune::spec::{Budget, Fidelity, Metric, Param, ParamKind};
+    use crate::plan::{Budget, Fidelity, Metric, Param, ParamKind};
 
     fn spec(proposal: Proposal) -> TuneSpec {
         TuneSpec {

@@ -4,7 +4,7 @@
 use rand::{Rng, RngExt};
 use toml::Value;
 
-use super::spec::{Param, ParamKind};
+use crate::plan::{Param, ParamKind};
 
 /// Keeps the exclusive upper bound of `tpe`'s ranges just above `hi`.
 const PAD: f64 = 1e-9;

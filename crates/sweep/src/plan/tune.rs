@@ -32,8 +32,8 @@
 use serde::Deserialize;
 use toml::{Table, Value};
 
-use crate::plan::Source;
-use crate::plan::flatten_space;
+use super::Source;
+use super::flatten_space;
 
 /// The most fidelity levels (each level is a power of `eta` more work than the last).
 const MAX_LEVELS: u32 = 6;
