@@ -105,9 +105,10 @@ pub use util::{
     write_atomic, write_atomic_with,
 };
 pub use volume::{
-    ByteOrder, DATASETS, DatasetInfo, DatasetOverrides, DatasetStatus, FileRequest, Grid,
-    LoadedVoxels, Normalization, NormalizationRecord, PhantomParams, Placement, RawLayout,
-    Reconstruction, SearchPath, Volume, VolumeSource, VoxelType, check_dims, find_dataset,
-    load_dataset, read_metaimage, read_nrrd, read_volume, read_voxels, survey_datasets,
-    write_metaimage, write_nrrd,
+    Acquisition, ByteOrder, DATASETS, DatasetInfo, DatasetOverrides, DatasetStatus, DicomInput,
+    FileRequest, Grid, LoadedVoxels, Normalization, NormalizationRecord, Orientation,
+    PhantomParams, Placement, RawLayout, Reconstruction, SearchPath, Volume, VolumeSource,
+    VoxelType, check_dims, find_dataset, is_nifti, load_dataset, read_dicom_series,
+    read_dicom_volume, read_metaimage, read_nifti, read_nrrd, read_volume, read_voxels,
+    survey_datasets, write_metaimage, write_nrrd,
 };

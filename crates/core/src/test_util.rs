@@ -77,3 +77,5 @@ pub fn relative_rmse(a: &[glam::Vec3], b: &[glam::Vec3]) -> f64 {
         / (3.0 * n);
     mse.sqrt() / crate::mean_rgb(b)
 }
+
+pub mod dicom;

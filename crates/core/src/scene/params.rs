@@ -17,8 +17,9 @@ use crate::medium::{
     TransferParams,
 };
 use crate::volume::{
-    ByteOrder, DatasetOverrides, FileRequest, Normalization, PhantomParams, Placement, RawLayout,
-    Reconstruction, SearchPath, Volume, VoxelType, load_dataset, read_volume,
+    ByteOrder, DatasetOverrides, DicomInput, FileRequest, Normalization, PhantomParams, Placement,
+    RawLayout, Reconstruction, SearchPath, Volume, VoxelType, is_nifti, load_dataset,
+    read_dicom_volume, read_volume,
 };
 
 /// `[volume]`: where the voxels come from and how they are placed and scaled.
@@ -28,9 +29,18 @@ pub struct VolumeParams {
     /// A registry name (`foot`, `engine`, `head`, `head16`, `skeleton`, …).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dataset: Option<String>,
-    /// A file path, relative to the scene file.
+    /// A file path, relative to the scene file (`.raw`, `.nrrd`, `.nhdr`, `.mhd`, `.mha`,
+    /// `.nii`, `.nii.gz`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub file: Option<PathBuf>,
+    /// A DICOM series: a folder (searched recursively) or a list of files, relative to the
+    /// scene file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dicom: Option<DicomInput>,
+    /// With `dicom`: the SeriesInstanceUID to read when the input holds several series
+    /// (default: the one with the most slices; equal candidates are an error).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub series: Option<String>,
     /// A procedural phantom.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub phantom: Option<PhantomParams>,
@@ -200,19 +210,32 @@ pub fn validate_params(params: &SceneParams) -> Result<()> {
 enum VolumeChoice<'a> {
     Dataset(&'a str),
     File(&'a Path),
+    Dicom(&'a DicomInput),
     Phantom(&'a PhantomParams),
 }
 
 fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
-    let given = [v.dataset.is_some(), v.file.is_some(), v.phantom.is_some()]
-        .iter()
-        .filter(|b| **b)
-        .count();
+    let given = [
+        v.dataset.is_some(),
+        v.file.is_some(),
+        v.phantom.is_some(),
+        v.dicom.is_some(),
+    ]
+    .iter()
+    .filter(|b| **b)
+    .count();
     if given != 1 {
         return Err(Error::parameter(
             "volume",
             format!("{given} sources"),
-            "exactly one of `dataset`, `file`, `phantom`",
+            "exactly one of `dataset`, `file`, `dicom`, `phantom`",
+        ));
+    }
+    if v.series.is_some() && v.dicom.is_none() {
+        return Err(Error::parameter(
+            "volume.series",
+            "(given)",
+            "only with `dicom` (it picks a SeriesInstanceUID)",
         ));
     }
     let raw_keys = [
@@ -222,13 +245,14 @@ fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
         ("header_bytes", v.header_bytes.is_some()),
     ];
     let is_raw_file = v.file.as_ref().is_some_and(|f| {
-        !matches!(
-            f.extension()
-                .and_then(|e| e.to_str())
-                .map(|e| e.to_ascii_lowercase())
-                .as_deref(),
-            Some("nrrd" | "nhdr" | "mhd" | "mha")
-        )
+        !is_nifti(f)
+            && !matches!(
+                f.extension()
+                    .and_then(|e| e.to_str())
+                    .map(|e| e.to_ascii_lowercase())
+                    .as_deref(),
+                Some("nrrd" | "nhdr" | "mhd" | "mha")
+            )
     });
     for (key, present) in raw_keys {
         if present && !is_raw_file {
@@ -283,10 +307,11 @@ fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
             "no normalisation for phantoms (they are already in [0, 1])",
         ));
     }
-    Ok(match (&v.dataset, &v.file, &v.phantom) {
-        (Some(d), _, _) => VolumeChoice::Dataset(d),
-        (_, Some(f), _) => VolumeChoice::File(f),
-        (_, _, Some(p)) => VolumeChoice::Phantom(p),
+    Ok(match (&v.dataset, &v.file, &v.phantom, &v.dicom) {
+        (Some(d), _, _, _) => VolumeChoice::Dataset(d),
+        (_, Some(f), _, _) => VolumeChoice::File(f),
+        (_, _, Some(p), _) => VolumeChoice::Phantom(p),
+        (_, _, _, Some(d)) => VolumeChoice::Dicom(d),
         _ => unreachable!("exactly one source checked above"),
     })
 }
@@ -363,6 +388,18 @@ pub fn load_volume(v: &VolumeParams, base: &Path, search: &SearchPath) -> Result
                 expected_sha256: v.sha256.clone(),
             })
         }
+        VolumeChoice::Dicom(input) => read_dicom_volume(
+            &input.resolved(base),
+            v.series.as_deref(),
+            &FileRequest {
+                path: base.to_path_buf(),
+                raw_layout: None,
+                placement: place,
+                normalization: norm,
+                dataset: None,
+                expected_sha256: None,
+            },
+        ),
         VolumeChoice::Phantom(p) => {
             let volume = Volume::from_phantom(p).map_err(|e| e.within("volume"))?;
             match place {

@@ -1,4 +1,4 @@
-//! Volume data: RAW, NRRD and MetaImage files, procedural phantoms, normalisation to
+//! Volume data: RAW, NRRD, MetaImage and NIfTI-1 files, DICOM series, procedural phantoms, normalisation to
 //! `[0, 1]` and the dataset registry (thesis §2.1, §7.2).
 //!
 //! A [`Volume`] is a [`Grid`] of normalised densities plus a record of where it came from
@@ -22,8 +22,9 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 pub use formats::{
-    ByteOrder, LoadedVoxels, RawLayout, VoxelType, check_dims, read_metaimage, read_nrrd,
-    read_voxels, write_metaimage, write_nrrd,
+    Acquisition, ByteOrder, DicomInput, LoadedVoxels, Orientation, RawLayout, VoxelType,
+    check_dims, is_nifti, read_dicom_series, read_metaimage, read_nifti, read_nrrd, read_voxels,
+    write_metaimage, write_nrrd,
 };
 pub use grid::{Grid, Reconstruction};
 pub use phantom::PhantomParams;
@@ -118,8 +119,12 @@ pub enum VolumeSource {
         header: Option<PathBuf>,
         /// sha256 of the voxel file, lowercase hex.
         sha256: String,
-        /// `raw`, `nrrd` or `metaimage`.
+        /// `raw`, `nrrd`, `metaimage`, `nifti` or `dicom` (then `path` is the folder or the
+        /// first file and `sha256` covers every file of the series in slice order).
         format: String,
+        /// Series, slice count, spacing, rescale and orientation (DICOM, NIfTI).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        acquisition: Option<Box<Acquisition>>,
     },
     /// Generated procedurally ([`crate::PhantomParams`]).
     Phantom {
@@ -139,10 +144,15 @@ impl VolumeSource {
                 dataset,
                 path,
                 sha256,
+                acquisition,
                 ..
             } => {
                 let name = dataset.clone().unwrap_or_else(|| "file".into());
-                format!("{name} ({}, sha256 {})", path.display(), sha256)
+                let what = acquisition
+                    .as_ref()
+                    .map(|a| format!("; {}", a.describe()))
+                    .unwrap_or_default();
+                format!("{name} ({}, sha256 {}{what})", path.display(), sha256)
             }
             VolumeSource::Phantom { name, parameters } => {
                 format!("phantom {name} ({parameters})")
@@ -319,7 +329,7 @@ impl Volume {
 /// A request to load a volume from a file with everything a headerless RAW file lacks.
 #[derive(Debug, Clone)]
 pub struct FileRequest {
-    /// The file (`.raw`, `.nrrd`, `.nhdr`, `.mhd`, `.mha`).
+    /// The file (`.raw`, `.nrrd`, `.nhdr`, `.mhd`, `.mha`, `.nii`, `.nii.gz`).
     pub path: PathBuf,
     /// Layout for RAW files (ignored for header formats, which carry their own).
     pub raw_layout: Option<RawLayout>,
@@ -346,10 +356,29 @@ pub fn read_volume(request: &FileRequest) -> Result<Volume> {
             actual: sha256,
         });
     }
+    let header = (loaded.data_path != request.path).then(|| request.path.clone());
+    from_loaded(loaded, request, header, sha256)
+}
+
+/// Reads a DICOM series ([`read_dicom_series`]) and normalises it; `request.path` is ignored.
+pub fn read_dicom_volume(
+    input: &DicomInput,
+    series: Option<&str>,
+    request: &FileRequest,
+) -> Result<Volume> {
+    let (loaded, sha256) = read_dicom_series(input, series)?;
+    from_loaded(loaded, request, None, sha256)
+}
+
+fn from_loaded(
+    loaded: LoadedVoxels,
+    request: &FileRequest,
+    header: Option<PathBuf>,
+    sha256: String,
+) -> Result<Volume> {
     let placement = request
         .placement
         .unwrap_or(Placement::Spacing(loaded.spacing.unwrap_or([1.0; 3])));
-    let header = (loaded.data_path != request.path).then(|| request.path.clone());
     Volume::from_raw_values(
         loaded.dims,
         loaded.values,
@@ -364,6 +393,7 @@ pub fn read_volume(request: &FileRequest) -> Result<Volume> {
             header,
             sha256,
             format: loaded.format.to_string(),
+            acquisition: loaded.acquisition.map(Box::new),
         },
     )
 }

@@ -81,6 +81,7 @@ pub fn read(path: &Path) -> Result<LoadedVoxels> {
         spacing,
         data_path,
         format: "metaimage",
+        acquisition: None,
     })
 }
 

@@ -1,19 +1,82 @@
 //! Volume file formats: headerless RAW, NRRD (attached or detached, raw or gzip) and
-//! MetaImage (`.mhd`/`.mha`, raw or zlib). Each reader returns [`LoadedVoxels`] — raw values
+//! MetaImage (`.mhd`/`.mha`, raw or zlib), NIfTI-1 (`.nii`, `.nii.gz`) and DICOM series
+//! (a folder or a list of files, read separately by [`read_dicom_series`]). Each reader returns [`LoadedVoxels`] — raw values
 //! with their type, spacing and data file — after checking the voxel count against the
 //! memory budget ([`check_dims`]) and before anything is normalised.
 
+mod dicom;
 mod metaimage;
+mod nifti;
 mod nrrd;
+pub mod orient;
 mod raw;
 
 use std::path::{Path, PathBuf};
 
+use serde::{Deserialize, Serialize};
+
 use crate::error::{Error, Result};
 
+pub use dicom::{DicomInput, read_series as read_dicom_series};
 pub use metaimage::{read as read_metaimage, write as write_metaimage};
+pub use nifti::{is_nifti, read as read_nifti};
 pub use nrrd::{read as read_nrrd, write as write_nrrd};
+pub use orient::Orientation;
 pub use raw::{ByteOrder, RawLayout, VoxelType};
+
+/// What a medical reader (DICOM, NIfTI) found: recorded with the volume's source in every
+/// output (render sidecar, cell record).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Acquisition {
+    /// `dicom` or `nifti`.
+    pub format: String,
+    /// SeriesInstanceUID (DICOM).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub series_uid: Option<String>,
+    /// SeriesDescription (DICOM) or `descrip` (NIfTI).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+    /// Modality (DICOM: CT, MR, …).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub modality: Option<String>,
+    /// Slices (frames) in the volume.
+    pub slices: usize,
+    /// Files read.
+    pub files: usize,
+    /// Voxel spacing along grid x, y, z in mm.
+    pub spacing_mm: [f64; 3],
+    /// The distinct `[slope, intercept]` pairs applied (RescaleSlope/Intercept, scl_slope/inter).
+    pub rescale: Vec<[f64; 2]>,
+    /// How the voxel axes were put onto the grid.
+    pub orientation: Orientation,
+    /// How the series was chosen (DICOM) or which transform gave the axes (NIfTI).
+    pub choice: String,
+}
+
+impl Acquisition {
+    /// One line for logs and captions.
+    pub fn describe(&self) -> String {
+        let rescale: Vec<String> = self
+            .rescale
+            .iter()
+            .map(|[s, i]| format!("{s}·v{i:+}"))
+            .collect();
+        format!(
+            "{} {}{} slices from {} files, spacing {:?} mm, rescale {}, {}; {}",
+            self.format,
+            self.modality
+                .as_deref()
+                .map(|m| format!("{m} "))
+                .unwrap_or_default(),
+            self.slices,
+            self.files,
+            self.spacing_mm,
+            rescale.join(" / "),
+            self.orientation.describe(),
+            self.choice
+        )
+    }
+}
 
 /// Reads the voxels of a volume file, choosing the reader by extension (`.nrrd`/`.nhdr`,
 /// `.mhd`/`.mha`; anything else is headerless RAW and needs `raw_layout`).
@@ -32,6 +95,7 @@ pub fn read_voxels(path: &Path, raw_layout: Option<&RawLayout>) -> Result<Loaded
     match ext.as_str() {
         "nrrd" | "nhdr" => read_nrrd(path),
         "mhd" | "mha" => read_metaimage(path),
+        _ if is_nifti(path) => read_nifti(path),
         _ => {
             let layout = raw_layout.ok_or_else(|| {
                 Error::format(
@@ -57,8 +121,10 @@ pub struct LoadedVoxels {
     pub spacing: Option<[f32; 3]>,
     /// The file holding the voxels (differs from the header for detached headers).
     pub data_path: PathBuf,
-    /// `raw`, `nrrd` or `metaimage`.
+    /// `raw`, `nrrd`, `metaimage`, `nifti` or `dicom`.
     pub format: &'static str,
+    /// Series, geometry and rescale, for the medical formats.
+    pub acquisition: Option<Acquisition>,
 }
 
 /// Validates dims (positive, product fits `usize` and the memory budget) before any read.

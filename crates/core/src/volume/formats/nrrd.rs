@@ -75,6 +75,7 @@ pub fn read(path: &Path) -> Result<LoadedVoxels> {
         spacing: header.spacing,
         data_path,
         format: "nrrd",
+        acquisition: None,
     })
 }
 

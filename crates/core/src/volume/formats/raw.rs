@@ -241,6 +241,7 @@ pub fn read(path: &Path, layout: &RawLayout) -> Result<LoadedVoxels> {
         spacing: None,
         data_path: path.to_path_buf(),
         format: "raw",
+        acquisition: None,
     })
 }
 

@@ -1,0 +1,260 @@
+//! Writes small DICOM files with the dicom-rs crates for the reader's tests: classic
+//! single-frame CT slices and enhanced multi-frame objects, with any position,
+//! orientation, storage (signed or not, BitsStored), photometric interpretation, rescale
+//! and transfer syntax.
+
+use std::path::Path;
+
+use dicom_core::value::{DataSetSequence, PixelFragmentSequence, PrimitiveValue};
+use dicom_core::{DataElement, Length, VR};
+use dicom_dictionary_std::{tags, uids};
+use dicom_object::{FileMetaTableBuilder, InMemDicomObject};
+
+/// One file to write.
+#[derive(Debug, Clone)]
+pub struct SliceSpec {
+    /// SeriesInstanceUID.
+    pub series_uid: String,
+    /// SeriesDescription.
+    pub description: String,
+    /// SOPInstanceUID (must be unique per file).
+    pub sop_uid: String,
+    /// ImagePositionPatient of each frame (one entry: a classic single-frame image; more:
+    /// an enhanced multi-frame object with per-frame functional groups).
+    pub positions: Vec<[f64; 3]>,
+    /// ImageOrientationPatient.
+    pub orientation: [f64; 6],
+    /// PixelSpacing (between rows, between columns).
+    pub pixel_spacing: [f64; 2],
+    /// Rows, columns.
+    pub size: [u16; 2],
+    /// PixelRepresentation 1.
+    pub signed: bool,
+    /// BitsStored (BitsAllocated is 16).
+    pub bits_stored: u16,
+    /// MONOCHROME1 instead of MONOCHROME2.
+    pub monochrome1: bool,
+    /// RescaleSlope, RescaleIntercept.
+    pub rescale: [f64; 2],
+    /// Transfer syntax UID; anything but the uncompressed ones writes the words as one
+    /// encapsulated fragment (enough to test that the reader refuses it).
+    pub transfer_syntax: String,
+}
+
+impl SliceSpec {
+    /// A 16-bit signed axial CT slice at `z` (orientation 1,0,0,0,1,0; spacing 0.5 × 0.75).
+    pub fn ct(series_uid: &str, sop_uid: &str, z: f64, size: [u16; 2]) -> Self {
+        SliceSpec {
+            series_uid: series_uid.into(),
+            description: "volphot test series".into(),
+            sop_uid: sop_uid.into(),
+            positions: vec![[-100.0, -120.0, z]],
+            orientation: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+            pixel_spacing: [0.75, 0.5],
+            size,
+            signed: true,
+            bits_stored: 16,
+            monochrome1: false,
+            rescale: [1.0, 0.0],
+            transfer_syntax: uids::EXPLICIT_VR_LITTLE_ENDIAN.into(),
+        }
+    }
+}
+
+fn ds(values: &[f64]) -> PrimitiveValue {
+    PrimitiveValue::Strs(values.iter().map(|v| format!("{v:.6}")).collect())
+}
+
+fn us(v: u16) -> PrimitiveValue {
+    PrimitiveValue::from(v)
+}
+
+fn sequence(items: Vec<InMemDicomObject>) -> DataSetSequence<InMemDicomObject> {
+    DataSetSequence::new(items, Length::UNDEFINED)
+}
+
+fn item(elements: Vec<DataElement<InMemDicomObject>>) -> InMemDicomObject {
+    InMemDicomObject::from_element_iter(elements)
+}
+
+/// Writes `spec` with `words` (stored values as 16-bit words, row-major, frames
+/// concatenated) to `path`.
+pub fn write_slice(path: &Path, spec: &SliceSpec, words: &[u16]) -> Result<(), String> {
+    let mut obj = InMemDicomObject::new_empty();
+    let put = |obj: &mut InMemDicomObject, tag, vr, value: PrimitiveValue| {
+        obj.put(DataElement::new(tag, vr, value));
+    };
+    let multi = spec.positions.len() > 1;
+    let class = if multi {
+        uids::ENHANCED_CT_IMAGE_STORAGE
+    } else {
+        uids::CT_IMAGE_STORAGE
+    };
+    put(&mut obj, tags::SOP_CLASS_UID, VR::UI, class.into());
+    put(
+        &mut obj,
+        tags::SOP_INSTANCE_UID,
+        VR::UI,
+        spec.sop_uid.as_str().into(),
+    );
+    put(&mut obj, tags::MODALITY, VR::CS, "CT".into());
+    put(&mut obj, tags::STUDY_INSTANCE_UID, VR::UI, "2.25.1".into());
+    put(
+        &mut obj,
+        tags::SERIES_INSTANCE_UID,
+        VR::UI,
+        spec.series_uid.as_str().into(),
+    );
+    put(
+        &mut obj,
+        tags::SERIES_DESCRIPTION,
+        VR::LO,
+        spec.description.as_str().into(),
+    );
+    put(&mut obj, tags::SAMPLES_PER_PIXEL, VR::US, us(1));
+    let photometric = if spec.monochrome1 {
+        "MONOCHROME1"
+    } else {
+        "MONOCHROME2"
+    };
+    put(
+        &mut obj,
+        tags::PHOTOMETRIC_INTERPRETATION,
+        VR::CS,
+        photometric.into(),
+    );
+    put(&mut obj, tags::ROWS, VR::US, us(spec.size[0]));
+    put(&mut obj, tags::COLUMNS, VR::US, us(spec.size[1]));
+    put(&mut obj, tags::BITS_ALLOCATED, VR::US, us(16));
+    put(&mut obj, tags::BITS_STORED, VR::US, us(spec.bits_stored));
+    put(&mut obj, tags::HIGH_BIT, VR::US, us(spec.bits_stored - 1));
+    put(
+        &mut obj,
+        tags::PIXEL_REPRESENTATION,
+        VR::US,
+        us(u16::from(spec.signed)),
+    );
+    if multi {
+        put_functional_groups(&mut obj, spec);
+    } else {
+        put(
+            &mut obj,
+            tags::IMAGE_POSITION_PATIENT,
+            VR::DS,
+            ds(&spec.positions[0]),
+        );
+        put(
+            &mut obj,
+            tags::IMAGE_ORIENTATION_PATIENT,
+            VR::DS,
+            ds(&spec.orientation),
+        );
+        put(
+            &mut obj,
+            tags::PIXEL_SPACING,
+            VR::DS,
+            ds(&spec.pixel_spacing),
+        );
+        put(
+            &mut obj,
+            tags::RESCALE_SLOPE,
+            VR::DS,
+            ds(&spec.rescale[..1]),
+        );
+        put(
+            &mut obj,
+            tags::RESCALE_INTERCEPT,
+            VR::DS,
+            ds(&spec.rescale[1..]),
+        );
+    }
+    let native = [
+        uids::EXPLICIT_VR_LITTLE_ENDIAN,
+        uids::IMPLICIT_VR_LITTLE_ENDIAN,
+    ]
+    .contains(&spec.transfer_syntax.as_str());
+    if native {
+        obj.put(DataElement::new(
+            tags::PIXEL_DATA,
+            VR::OW,
+            PrimitiveValue::U16(words.iter().copied().collect()),
+        ));
+    } else {
+        let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+        obj.put(DataElement::new(
+            tags::PIXEL_DATA,
+            VR::OB,
+            PixelFragmentSequence::new(vec![], vec![bytes]),
+        ));
+    }
+    let file = obj
+        .with_meta(FileMetaTableBuilder::new().transfer_syntax(spec.transfer_syntax.as_str()))
+        .map_err(|e| format!("{}: meta: {e}", path.display()))?;
+    file.write_to_file(path)
+        .map_err(|e| format!("{}: write: {e}", path.display()))
+}
+
+fn put_functional_groups(obj: &mut InMemDicomObject, spec: &SliceSpec) {
+    let frames: Vec<InMemDicomObject> = spec
+        .positions
+        .iter()
+        .map(|p| {
+            let position = item(vec![DataElement::new(
+                tags::IMAGE_POSITION_PATIENT,
+                VR::DS,
+                ds(p),
+            )]);
+            item(vec![DataElement::new(
+                tags::PLANE_POSITION_SEQUENCE,
+                VR::SQ,
+                sequence(vec![position]),
+            )])
+        })
+        .collect();
+    let orientation = item(vec![DataElement::new(
+        tags::IMAGE_ORIENTATION_PATIENT,
+        VR::DS,
+        ds(&spec.orientation),
+    )]);
+    let measures = item(vec![DataElement::new(
+        tags::PIXEL_SPACING,
+        VR::DS,
+        ds(&spec.pixel_spacing),
+    )]);
+    let transform = item(vec![
+        DataElement::new(tags::RESCALE_SLOPE, VR::DS, ds(&spec.rescale[..1])),
+        DataElement::new(tags::RESCALE_INTERCEPT, VR::DS, ds(&spec.rescale[1..])),
+    ]);
+    let shared = item(vec![
+        DataElement::new(
+            tags::PLANE_ORIENTATION_SEQUENCE,
+            VR::SQ,
+            sequence(vec![orientation]),
+        ),
+        DataElement::new(
+            tags::PIXEL_MEASURES_SEQUENCE,
+            VR::SQ,
+            sequence(vec![measures]),
+        ),
+        DataElement::new(
+            tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE,
+            VR::SQ,
+            sequence(vec![transform]),
+        ),
+    ]);
+    obj.put(DataElement::new(
+        tags::SHARED_FUNCTIONAL_GROUPS_SEQUENCE,
+        VR::SQ,
+        sequence(vec![shared]),
+    ));
+    obj.put(DataElement::new(
+        tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE,
+        VR::SQ,
+        sequence(frames),
+    ));
+    obj.put(DataElement::new(
+        tags::NUMBER_OF_FRAMES,
+        VR::IS,
+        PrimitiveValue::from(spec.positions.len().to_string()),
+    ));
+}

@@ -1,0 +1,252 @@
+//! From loose slices to one series: grouping by SeriesInstanceUID, choosing a series,
+//! and the geometry checks (same size and orientation, sorted along the slice normal,
+//! uniform spacing from the positions).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use super::header::SliceHeader;
+use crate::error::{Error, Result};
+use crate::volume::formats::orient::{PatientAxes, cross, dot};
+
+/// Relative tolerance on slice spacing (a gap beyond 1 % of the usual step is an error).
+const SPACING_TOLERANCE: f64 = 0.01;
+
+/// The slices of the chosen series and how it was chosen.
+pub struct Chosen {
+    /// Its slices (unsorted).
+    pub slices: Vec<SliceHeader>,
+    /// How it was chosen, for the record.
+    pub choice: String,
+}
+
+/// Groups slices by series and picks `wanted`, or the one with the most slices.
+pub fn choose(where_: &Path, slices: Vec<SliceHeader>, wanted: Option<&str>) -> Result<Chosen> {
+    let mut groups: BTreeMap<String, Vec<SliceHeader>> = BTreeMap::new();
+    for s in slices {
+        groups.entry(s.series_uid.clone()).or_default().push(s);
+    }
+    let listing = |groups: &BTreeMap<String, Vec<SliceHeader>>| {
+        groups
+            .iter()
+            .map(|(uid, s)| format!("{uid} ({} slices, {:?})", s.len(), s[0].description))
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    if let Some(uid) = wanted {
+        let text = listing(&groups);
+        let n = groups.len();
+        return match groups.remove(uid) {
+            Some(slices) => Ok(Chosen {
+                choice: format!("series {uid} as asked (of {n} series in the input)"),
+                slices,
+            }),
+            None => Err(Error::format(
+                where_,
+                format!("series = {uid:?} is not in the input; it holds {text}"),
+            )),
+        };
+    }
+    let most = groups.values().map(Vec::len).max().unwrap_or(0);
+    let largest: Vec<&String> = groups
+        .iter()
+        .filter(|(_, s)| s.len() == most)
+        .map(|(uid, _)| uid)
+        .collect();
+    if largest.len() > 1 {
+        return Err(Error::format(
+            where_,
+            format!(
+                "{} series have {most} slices each, so none is the obvious choice; set `series` to one of: {}",
+                largest.len(),
+                listing(&groups)
+            ),
+        ));
+    }
+    let uid = largest[0].clone();
+    let choice = if groups.len() == 1 {
+        format!("series {uid}, the only one in the input")
+    } else {
+        let others: Vec<String> = groups
+            .iter()
+            .filter(|(u, _)| **u != uid)
+            .map(|(u, s)| format!("{u} ({} slices)", s.len()))
+            .collect();
+        format!(
+            "series {uid}, the largest ({most} slices) of {} series; not used: {}",
+            groups.len(),
+            others.join(", ")
+        )
+    };
+    Ok(Chosen {
+        slices: groups.remove(&uid).unwrap_or_default(),
+        choice,
+    })
+}
+
+/// Checks that the slices form one regular stack, sorts them along the slice normal and
+/// returns the voxel axes in the patient frame.
+pub fn stack(slices: &mut [SliceHeader]) -> Result<PatientAxes> {
+    let first = slices[0].clone();
+    for s in slices.iter() {
+        same_frame(&first, s)?;
+    }
+    let o = first.orientation;
+    let (row, col) = (
+        unit(&first, [o[0], o[1], o[2]])?,
+        unit(&first, [o[3], o[4], o[5]])?,
+    );
+    if dot(row, col).abs() > 1e-3 {
+        return Err(Error::format(
+            &first.path,
+            format!(
+                "ImageOrientationPatient {o:?}: the row and column directions are not perpendicular"
+            ),
+        ));
+    }
+    let normal = cross(row, col);
+    slices.sort_by(|a, b| dot(a.position, normal).total_cmp(&dot(b.position, normal)));
+    check_in_plane(slices, normal)?;
+    let step = slice_step(slices, normal)?;
+    Ok(PatientAxes {
+        directions: [row, col, normal],
+        spacing: [first.pixel_spacing[1], first.pixel_spacing[0], step],
+    })
+}
+
+fn same_frame(first: &SliceHeader, s: &SliceHeader) -> Result<()> {
+    let differs = |what: &str, this: String, that: String| {
+        Err(Error::format(
+            &s.path,
+            format!(
+                "{what} is {this} but {} has {that}: every slice of series {} must match",
+                first.path.display(),
+                s.series_uid
+            ),
+        ))
+    };
+    if s.size != first.size {
+        let f = |z: [u32; 2]| format!("{}×{} (rows×columns)", z[0], z[1]);
+        return differs("the slice size", f(s.size), f(first.size));
+    }
+    if s.orientation
+        .iter()
+        .zip(first.orientation)
+        .any(|(a, b)| (a - b).abs() > 1e-4)
+    {
+        return differs(
+            "ImageOrientationPatient",
+            format!("{:?}", s.orientation),
+            format!("{:?}", first.orientation),
+        );
+    }
+    if s.pixel_spacing
+        .iter()
+        .zip(first.pixel_spacing)
+        .any(|(a, b)| (a - b).abs() > 1e-4 * b.abs().max(1.0))
+    {
+        return differs(
+            "PixelSpacing",
+            format!("{:?}", s.pixel_spacing),
+            format!("{:?}", first.pixel_spacing),
+        );
+    }
+    if s.format != first.format {
+        return differs(
+            "the pixel format",
+            format!("{:?}", s.format),
+            format!("{:?}", first.format),
+        );
+    }
+    Ok(())
+}
+
+fn unit(s: &SliceHeader, v: [f64; 3]) -> Result<[f64; 3]> {
+    let n = dot(v, v).sqrt();
+    if (n - 1.0).abs() > 1e-2 {
+        return Err(Error::format(
+            &s.path,
+            format!(
+                "ImageOrientationPatient {:?}: direction {v:?} has length {n}, expected unit vectors",
+                s.orientation
+            ),
+        ));
+    }
+    Ok(v.map(|x| x / n))
+}
+
+/// Every slice must sit on the line through the first along the normal (no shear).
+fn check_in_plane(slices: &[SliceHeader], normal: [f64; 3]) -> Result<()> {
+    let first = &slices[0];
+    let tolerance = 0.01 * first.pixel_spacing[0].min(first.pixel_spacing[1]) + 1e-3;
+    let off = |s: &SliceHeader| {
+        let d = dot(s.position, normal);
+        [0, 1, 2].map(|a| s.position[a] - d * normal[a])
+    };
+    let base = off(first);
+    for s in slices {
+        let o = off(s);
+        let shift =
+            ((o[0] - base[0]).powi(2) + (o[1] - base[1]).powi(2) + (o[2] - base[2]).powi(2)).sqrt();
+        if shift > tolerance {
+            return Err(Error::format(
+                &s.path,
+                format!(
+                    "ImagePositionPatient {:?} is shifted {shift:.4} mm within the slice plane against {}: \
+                     a sheared stack (gantry tilt?) is not supported",
+                    s.position,
+                    first.path.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn describe(s: &SliceHeader) -> String {
+    if s.frame == 0 {
+        s.path.display().to_string()
+    } else {
+        format!("{} frame {}", s.path.display(), s.frame + 1)
+    }
+}
+
+/// The slice step from the positions, checked uniform.
+fn slice_step(slices: &[SliceHeader], normal: [f64; 3]) -> Result<f64> {
+    let d: Vec<f64> = slices.iter().map(|s| dot(s.position, normal)).collect();
+    if slices.len() == 1 {
+        return Ok(slices[0].thickness.filter(|t| *t > 0.0).unwrap_or(1.0));
+    }
+    let mut steps: Vec<f64> = d.windows(2).map(|w| w[1] - w[0]).collect();
+    for (k, step) in steps.iter().enumerate() {
+        if *step < 1e-4 {
+            return Err(Error::format(
+                &slices[k + 1].path,
+                format!(
+                    "two slices at the same position {:.4} mm along the normal: this one and {}",
+                    d[k + 1],
+                    describe(&slices[k])
+                ),
+            ));
+        }
+    }
+    let all = steps.clone();
+    steps.sort_by(f64::total_cmp);
+    let usual = steps[steps.len() / 2];
+    for (k, step) in all.iter().enumerate() {
+        if (step - usual).abs() > SPACING_TOLERANCE * usual {
+            return Err(Error::format(
+                &slices[k + 1].path,
+                format!(
+                    "gap of {step:.4} mm between {} (at {:.4} mm along the slice normal) and this slice (at {:.4} mm), \
+                     where the other slices are {usual:.4} mm apart: a missing slice or irregular spacing \
+                     (volphot does not resample; add the missing file or pass only a regular run of slices)",
+                    describe(&slices[k]),
+                    d[k],
+                    d[k + 1]
+                ),
+            ));
+        }
+    }
+    Ok((d[d.len() - 1] - d[0]) / (d.len() - 1) as f64)
+}

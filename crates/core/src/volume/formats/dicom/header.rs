@@ -1,0 +1,307 @@
+//! One pass over the files' headers (pixel data not read): every frame of every image
+//! becomes a [`SliceHeader`] with its series, position, orientation and pixel format.
+
+use std::path::{Path, PathBuf};
+
+use dicom_core::Tag;
+use dicom_dictionary_std::tags;
+use dicom_object::{DefaultDicomObject, InMemDicomObject, OpenFileOptions};
+use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry};
+
+use crate::error::{Error, Result};
+
+/// What one frame of one file says about itself.
+#[derive(Debug, Clone)]
+pub struct SliceHeader {
+    /// The file.
+    pub path: PathBuf,
+    /// Frame index within the file (0 for single-frame images).
+    pub frame: u32,
+    /// SeriesInstanceUID.
+    pub series_uid: String,
+    /// SeriesDescription (may be empty).
+    pub description: String,
+    /// Modality (CT, MR, …; may be empty).
+    pub modality: String,
+    /// Transfer syntax UID of the file.
+    pub transfer_syntax: String,
+    /// ImagePositionPatient: the centre of the first pixel, mm, LPS.
+    pub position: [f64; 3],
+    /// ImageOrientationPatient: row direction then column direction.
+    pub orientation: [f64; 6],
+    /// PixelSpacing: (between rows, between columns) in mm.
+    pub pixel_spacing: [f64; 2],
+    /// Rows, columns.
+    pub size: [u32; 2],
+    /// Pixel format.
+    pub format: PixelFormat,
+    /// RescaleSlope, RescaleIntercept (1, 0 when absent).
+    pub rescale: [f64; 2],
+    /// SliceThickness, used only for a single-slice series.
+    pub thickness: Option<f64>,
+}
+
+/// How stored pixel values are encoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PixelFormat {
+    /// BitsAllocated (8, 16 or 32).
+    pub bits_allocated: u16,
+    /// BitsStored.
+    pub bits_stored: u16,
+    /// PixelRepresentation = 1.
+    pub signed: bool,
+    /// PhotometricInterpretation MONOCHROME1 (higher stored value = darker).
+    pub inverted: bool,
+}
+
+/// Why a file in a folder is not an image slice (skipped, counted in errors).
+pub enum Skip {
+    /// Not DICOM at all (no `DICM` magic, unreadable meta group).
+    NotDicom(String),
+    /// DICOM but no image (DICOMDIR, structured report, …).
+    NoImage,
+}
+
+/// Reads the header of one file: its frames, or why it is no image.
+pub fn scan(path: &Path) -> Result<std::result::Result<Vec<SliceHeader>, Skip>> {
+    let obj: DefaultDicomObject = match OpenFileOptions::new()
+        .read_until(tags::PIXEL_DATA)
+        .open_file(path)
+    {
+        Ok(o) => o,
+        Err(e) => return Ok(Err(Skip::NotDicom(e.to_string()))),
+    };
+    if obj.get(tags::ROWS).is_none() {
+        return Ok(Err(Skip::NoImage));
+    }
+    slices_of(path, &obj).map(Ok)
+}
+
+fn slices_of(path: &Path, obj: &DefaultDicomObject) -> Result<Vec<SliceHeader>> {
+    let ts = obj.meta().transfer_syntax().to_string();
+    let frames: u32 = match obj.get(tags::NUMBER_OF_FRAMES) {
+        None => 1,
+        Some(e) => e
+            .to_int()
+            .map_err(|_| bad(path, "NumberOfFrames", "a positive integer"))?,
+    };
+    if frames == 0 {
+        return Err(bad(path, "NumberOfFrames", "at least 1 (the value is 0)"));
+    }
+    let samples = int(path, obj, tags::SAMPLES_PER_PIXEL, "SamplesPerPixel").unwrap_or(1);
+    if samples != 1 {
+        return Err(Error::format(
+            path,
+            format!("SamplesPerPixel is {samples}: only greyscale (1 sample) images form a volume"),
+        ));
+    }
+    let photometric = text(obj, tags::PHOTOMETRIC_INTERPRETATION);
+    let format = PixelFormat {
+        bits_allocated: int(path, obj, tags::BITS_ALLOCATED, "BitsAllocated")?.min(64) as u16,
+        bits_stored: int(path, obj, tags::BITS_STORED, "BitsStored")?.min(64) as u16,
+        signed: int(path, obj, tags::PIXEL_REPRESENTATION, "PixelRepresentation")? == 1,
+        inverted: photometric == "MONOCHROME1",
+    };
+    check_format(path, &format, &photometric)?;
+    let size = [
+        int(path, obj, tags::ROWS, "Rows")?,
+        int(path, obj, tags::COLUMNS, "Columns")?,
+    ];
+    let mut out = Vec::with_capacity(frames as usize);
+    for frame in 0..frames {
+        let found = |tag, seq| functional(obj, frame, seq, tag);
+        let position = floats::<3>(
+            path,
+            found(tags::IMAGE_POSITION_PATIENT, tags::PLANE_POSITION_SEQUENCE),
+            "ImagePositionPatient",
+            frame,
+        )?;
+        let orientation = floats::<6>(
+            path,
+            found(
+                tags::IMAGE_ORIENTATION_PATIENT,
+                tags::PLANE_ORIENTATION_SEQUENCE,
+            ),
+            "ImageOrientationPatient",
+            frame,
+        )?;
+        let pixel_spacing = floats::<2>(
+            path,
+            found(tags::PIXEL_SPACING, tags::PIXEL_MEASURES_SEQUENCE),
+            "PixelSpacing",
+            frame,
+        )?;
+        let slope = found(
+            tags::RESCALE_SLOPE,
+            tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE,
+        );
+        let intercept = found(
+            tags::RESCALE_INTERCEPT,
+            tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE,
+        );
+        let thickness = found(tags::SLICE_THICKNESS, tags::PIXEL_MEASURES_SEQUENCE);
+        out.push(SliceHeader {
+            path: path.to_path_buf(),
+            frame,
+            series_uid: text(obj, tags::SERIES_INSTANCE_UID),
+            description: text(obj, tags::SERIES_DESCRIPTION),
+            modality: text(obj, tags::MODALITY),
+            transfer_syntax: ts.clone(),
+            position,
+            orientation,
+            pixel_spacing,
+            size,
+            format,
+            rescale: [
+                optional_float(path, slope, "RescaleSlope")?.unwrap_or(1.0),
+                optional_float(path, intercept, "RescaleIntercept")?.unwrap_or(0.0),
+            ],
+            thickness: optional_float(path, thickness, "SliceThickness")?,
+        });
+    }
+    Ok(out)
+}
+
+fn check_format(path: &Path, f: &PixelFormat, photometric: &str) -> Result<()> {
+    if !matches!(photometric, "MONOCHROME1" | "MONOCHROME2") {
+        return Err(Error::format(
+            path,
+            format!(
+                "PhotometricInterpretation is {photometric:?}: expected MONOCHROME1 or MONOCHROME2"
+            ),
+        ));
+    }
+    if !matches!(f.bits_allocated, 8 | 16 | 32)
+        || f.bits_stored == 0
+        || f.bits_stored > f.bits_allocated
+    {
+        return Err(Error::format(
+            path,
+            format!(
+                "BitsAllocated {} / BitsStored {}: expected 8, 16 or 32 bits allocated and 1..=allocated stored",
+                f.bits_allocated, f.bits_stored
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Checks that the file's transfer syntax can be decoded by the built-in (pure-Rust) codecs.
+pub fn check_transfer_syntax(path: &Path, uid: &str) -> Result<()> {
+    match TransferSyntaxRegistry.get(uid) {
+        None => Err(Error::format(
+            path,
+            format!("unknown transfer syntax {uid}: expected a DICOM transfer syntax UID"),
+        )),
+        Some(ts) if !ts.can_decode_all() => Err(Error::format(
+            path,
+            format!(
+                "transfer syntax {uid} ({}) cannot be decoded here; supported are the uncompressed syntaxes, \
+                 deflate, RLE lossless and JPEG baseline/extended/lossless (convert first, e.g. `gdcmconv --raw` or `dcmdjpeg`)",
+                ts.name()
+            ),
+        )),
+        Some(_) => Ok(()),
+    }
+}
+
+/// An attribute of `frame`: in the frame's functional group item, the shared functional
+/// groups, or (classic images) the top-level data set.
+fn functional(
+    obj: &InMemDicomObject,
+    frame: u32,
+    seq: Tag,
+    tag: Tag,
+) -> Option<&dicom_object::mem::InMemElement> {
+    let in_group = |group: Tag, index: usize| {
+        obj.get(group)?
+            .items()?
+            .get(index)?
+            .get(seq)?
+            .items()?
+            .first()?
+            .get(tag)
+    };
+    in_group(tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE, frame as usize)
+        .or_else(|| in_group(tags::SHARED_FUNCTIONAL_GROUPS_SEQUENCE, 0))
+        .or_else(|| obj.get(tag))
+}
+
+fn text(obj: &InMemDicomObject, tag: Tag) -> String {
+    obj.get(tag)
+        .and_then(|e| e.to_str().ok())
+        .map(|s| s.trim_end_matches(['\0', ' ']).trim().to_string())
+        .unwrap_or_default()
+}
+
+fn int(path: &Path, obj: &InMemDicomObject, tag: Tag, name: &str) -> Result<u32> {
+    let e = obj
+        .get(tag)
+        .ok_or_else(|| bad(path, name, "present (it is missing)"))?;
+    e.to_int::<u32>().map_err(|_| {
+        bad(
+            path,
+            name,
+            &format!("an integer (found {:?})", e.to_str().unwrap_or_default()),
+        )
+    })
+}
+
+fn floats<const N: usize>(
+    path: &Path,
+    element: Option<&dicom_object::mem::InMemElement>,
+    name: &str,
+    frame: u32,
+) -> Result<[f64; N]> {
+    let e = element.ok_or_else(|| {
+        bad(
+            path,
+            name,
+            &format!(
+                "present for frame {frame} (it is missing; volphot needs it to place the slice)"
+            ),
+        )
+    })?;
+    let v = e.to_multi_float64().unwrap_or_default();
+    <[f64; N]>::try_from(v.as_slice())
+        .ok()
+        .filter(|a| a.iter().all(|x| x.is_finite()))
+        .ok_or_else(|| {
+            bad(
+                path,
+                name,
+                &format!(
+                    "{N} finite numbers (found {:?})",
+                    e.to_str().unwrap_or_default()
+                ),
+            )
+        })
+}
+
+fn optional_float(
+    path: &Path,
+    element: Option<&dicom_object::mem::InMemElement>,
+    name: &str,
+) -> Result<Option<f64>> {
+    element
+        .map(|e| {
+            e.to_float64()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    bad(
+                        path,
+                        name,
+                        &format!(
+                            "a finite number (found {:?})",
+                            e.to_str().unwrap_or_default()
+                        ),
+                    )
+                })
+        })
+        .transpose()
+}
+
+fn bad(path: &Path, name: &str, expected: &str) -> Error {
+    Error::format(path, format!("{name}: expected {expected}"))
+}
