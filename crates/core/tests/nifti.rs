@@ -178,8 +178,7 @@ fn truncated_files_are_errors_naming_the_file() {
     let bytes = std::fs::read(&gz).unwrap();
     std::fs::write(&gz, &bytes[..bytes.len() / 2]).unwrap();
     let e = read_nifti(&gz)
-        .err()
-        .expect("a truncated .nii.gz must fail")
+        .expect_err("a truncated .nii.gz must fail")
         .to_string();
     assert!(e.contains("cut.nii.gz") && e.contains("truncated"), "{e}");
 
@@ -188,8 +187,7 @@ fn truncated_files_are_errors_naming_the_file() {
     let bytes = std::fs::read(&nii).unwrap();
     std::fs::write(&nii, &bytes[..bytes.len() - 10]).unwrap();
     let e = read_nifti(&nii)
-        .err()
-        .expect("short data must fail")
+        .expect_err("short data must fail")
         .to_string();
     assert!(e.contains("short.nii") && e.contains("truncated"), "{e}");
 }
