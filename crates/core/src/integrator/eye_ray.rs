@@ -124,7 +124,8 @@ impl Marcher<'_> {
                 };
                 if tr > 0.0 {
                     let direct = inc.radiance * (tr * self.medium.phase().eval(-inc.to_light, wo));
-                    acc.single += self.medium.albedo() * sample.sigma_t * direct * sample.weight;
+                    acc.single +=
+                        self.medium.albedo_at(sample.x) * sample.sigma_t * direct * sample.weight;
                 }
             }
         }
@@ -140,8 +141,12 @@ impl Marcher<'_> {
                     acc.counters.gathers += 1;
                 }
                 for (&vi, e) in group.variants.iter().zip(estimates.iter()) {
-                    let factor =
-                        source_factor(self.variants[vi].estimate, self.medium, sample.sigma_t);
+                    let factor = source_factor(
+                        self.variants[vi].estimate,
+                        self.medium,
+                        sample.x,
+                        sample.sigma_t,
+                    );
                     acc.multiple[vi] += factor * *e * sample.weight;
                 }
             }

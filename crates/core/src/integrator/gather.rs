@@ -121,10 +121,10 @@ pub(super) fn group_by_map<'a>(
 
 /// Source term per unit length from a gathered density, for each [`Estimate`] form.
 #[inline]
-pub(super) fn source_factor(estimate: Estimate, medium: &Medium, sigma_t: f32) -> Vec3 {
+pub(super) fn source_factor(estimate: Estimate, medium: &Medium, x: Vec3, sigma_t: f32) -> Vec3 {
     match estimate {
-        Estimate::Masked | Estimate::Fluence => medium.albedo() * sigma_t,
-        Estimate::Albedo => medium.albedo(),
+        Estimate::Masked | Estimate::Fluence => medium.albedo_at(x) * sigma_t,
+        Estimate::Albedo => medium.albedo_at(x),
         Estimate::Thesis => Vec3::ONE,
     }
 }

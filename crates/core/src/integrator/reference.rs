@@ -198,7 +198,6 @@ fn trace_path(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> PathSample {
     let mut out = PathSample::default();
     let mut beta = Vec3::ONE;
     let mut vertices = 0u32;
-    let survive = medium.mean_albedo();
     while let Some((t0, t1)) = medium.clip(&ray) {
         let Some(t) = medium.sample_interaction_delta(&ray, t0, t1, rng) else {
             break;
@@ -209,10 +208,12 @@ fn trace_path(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> PathSample {
             out.emission += beta * medium.emission(x) / medium.sigma_t(x);
         }
         // Absorb or scatter with the albedo (σs/σt) as survival probability.
+        let albedo = medium.albedo_at(x);
+        let survive = (albedo.x + albedo.y + albedo.z) / 3.0;
         if survive <= 0.0 || rng.uniform() >= survive {
             break;
         }
-        beta *= medium.albedo() / survive;
+        beta *= albedo / survive;
         vertices += 1;
         let layer_wanted = if vertices == 1 {
             settings.single

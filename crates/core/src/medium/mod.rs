@@ -9,6 +9,7 @@
 //! * [`optical_depth`] integrates σt exactly along a ray, cell by cell;
 //! * [`phase`] is the phase function.
 
+pub mod colour;
 mod free_path;
 mod majorant;
 mod march;
@@ -19,6 +20,7 @@ mod transfer;
 
 use glam::Vec3;
 
+pub use colour::ColourTransfer;
 pub use free_path::{FreePath, sample_interaction_march, sample_interaction_thesis};
 pub use majorant::{MajorantGrid, MajorantSegment, MajorantSegments};
 pub use phase::Phase;
@@ -90,6 +92,21 @@ fn ball_points() -> &'static [Vec3] {
     })
 }
 
+/// Per-channel colour grids for a colour transfer function (evaluated on the raw values).
+fn colour_grids(volume: &Volume, transfer: &TransferFunction) -> Option<Box<[Grid; 3]>> {
+    transfer.colour_at(0.0)?;
+    let values = volume.grid().values();
+    let rgb: Vec<[f32; 3]> = values
+        .iter()
+        .map(|&d| transfer.colour_at(d).unwrap_or([1.0; 3]))
+        .collect();
+    Some(Box::new([0, 1, 2].map(|c| {
+        volume
+            .grid()
+            .with_values(rgb.iter().map(|v| v[c]).collect())
+    })))
+}
+
 /// A renderable medium built from a volume.
 #[derive(Debug, Clone)]
 pub struct Medium {
@@ -98,6 +115,7 @@ pub struct Medium {
     sigma_t_base: f32,
     albedo: Vec3,
     mean_albedo: f32,
+    colour: Option<Box<[Grid; 3]>>,
     emission: Vec3,
     phase: Phase,
     majorants: MajorantGrid,
@@ -137,7 +155,9 @@ impl Medium {
         let majorants =
             MajorantGrid::build(&density, coefficients.sigma_t_base, settings.brick_size);
         let albedo = coefficients.albedo;
+        let colour = colour_grids(volume, &settings.transfer);
         Ok(Medium {
+            colour,
             density,
             reconstruction: settings.reconstruction,
             sigma_t_base: coefficients.sigma_t_base,
@@ -199,6 +219,24 @@ impl Medium {
     /// Single-scattering albedo σs/σt per channel (constant over the medium).
     pub fn albedo(&self) -> Vec3 {
         self.albedo
+    }
+
+    /// Albedo at `p`: [`Self::albedo`] times the colour transfer function's colour there
+    /// (just [`Self::albedo`] for grey media).
+    #[inline]
+    pub fn albedo_at(&self, p: Vec3) -> Vec3 {
+        match &self.colour {
+            None => self.albedo,
+            Some(rgb) => {
+                let c = rgb.each_ref().map(|g| g.sample(p, self.reconstruction));
+                self.albedo * Vec3::from(c)
+            }
+        }
+    }
+
+    /// Whether the albedo varies with a colour transfer function.
+    pub fn has_colour(&self) -> bool {
+        self.colour.is_some()
     }
 
     /// Mean of the albedo's channels: the Russian-roulette survival probability (§5.1).

@@ -8,6 +8,9 @@
 //! * `thesis` — the smallest non-zero density `d_min` maps to `σt = t`, i.e.
 //!   `σt_base = t / d_min`, split by an `albedo` or a `ratio = [σa, σs]`
 //!   (§8.1.2 example: `t = 80`, `σs = 9/11·σt`).
+//! * `opacity` — for colour transfer functions ([`crate::ColourTransfer`]): the
+//!   transferred density already is extinction, `−ln(1 − α)/unit_distance` converted to
+//!   world units, times `scale` (default 1); `albedo` scales the colour (default 1).
 //! * `mean-free-path` — the mean free path `1/σt` at `d_min` is `percent` % of the largest
 //!   extent of the volume (§8.1.2: 1–2 % for nused > 100, 3–4 % below, ≥ 6–8 % transparent).
 //!
@@ -55,6 +58,9 @@ pub struct SigmaParams {
     /// `[σa, σs]` proportions (e.g. `[1, 4]`), alternative to `albedo`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ratio: Option<[f32; 2]>,
+    /// `opacity`: multiplier on the extinction the opacity gives (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f32>,
     /// Emission base value `Le` (RGB radiance per unit length per unit density).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub emission: Option<[f32; 3]>,
@@ -71,6 +77,8 @@ pub enum MappingKind {
     Thesis,
     /// Mean free path at `d_min` = `percent` % of the largest extent.
     MeanFreePath,
+    /// Extinction from a colour transfer function's opacity, times `scale`.
+    Opacity,
 }
 
 impl MappingKind {
@@ -80,6 +88,7 @@ impl MappingKind {
             MappingKind::Explicit => "explicit",
             MappingKind::Thesis => "thesis",
             MappingKind::MeanFreePath => "mean-free-path",
+            MappingKind::Opacity => "opacity",
         }
     }
 }
@@ -104,6 +113,7 @@ impl Default for SigmaParams {
             percent: None,
             albedo: None,
             ratio: None,
+            scale: None,
             emission: None,
         }
     }
@@ -158,6 +168,13 @@ pub enum SigmaMapping {
         percent: f32,
         /// Absorption/scattering split.
         split: Split,
+    },
+    /// σt = `scale` × the colour transfer function's extinction; albedo = `albedo` × colour.
+    Opacity {
+        /// Multiplier on extinction.
+        scale: f32,
+        /// Multiplier on the colour (the albedo where the colour is white).
+        albedo: f32,
     },
 }
 
@@ -215,8 +232,27 @@ impl SigmaMapping {
         if let Some(e) = params.emission {
             check_rgb_non_negative("emission", e)?;
         }
+        if params.mapping != MappingKind::Opacity {
+            forbid(params, "scale", params.scale.is_some())?;
+        }
         match params.mapping {
             MappingKind::Explicit => Self::create_explicit(params),
+            MappingKind::Opacity => {
+                for (key, present) in [
+                    ("sigma_a", params.sigma_a.is_some()),
+                    ("sigma_s", params.sigma_s.is_some()),
+                    ("t", params.t.is_some()),
+                    ("percent", params.percent.is_some()),
+                    ("ratio", params.ratio.is_some()),
+                ] {
+                    forbid(params, key, present)?;
+                }
+                let scale = params.scale.unwrap_or(1.0);
+                check_positive("scale", scale as f64)?;
+                let albedo = params.albedo.unwrap_or(1.0);
+                check_range("albedo", albedo as f64, 0.0, 1.0)?;
+                Ok(SigmaMapping::Opacity { scale, albedo })
+            }
             MappingKind::Thesis => {
                 forbid(params, "sigma_a", params.sigma_a.is_some())?;
                 forbid(params, "sigma_s", params.sigma_s.is_some())?;
@@ -322,6 +358,7 @@ impl SigmaMapping {
             SigmaMapping::Explicit { sigma_s, .. } => ("sigma_s", format!("{sigma_s:?}")),
             SigmaMapping::Thesis { t, .. } => ("t", t.to_string()),
             SigmaMapping::MeanFreePath { percent, .. } => ("percent", percent.to_string()),
+            SigmaMapping::Opacity { scale, .. } => ("scale", scale.to_string()),
         }
     }
 
@@ -349,6 +386,10 @@ impl SigmaMapping {
                 sigma_t_base: t / need_dmin()?,
                 albedo: Vec3::splat(split.albedo()),
             }),
+            SigmaMapping::Opacity { scale, albedo } => Ok(Coefficients {
+                sigma_t_base: *scale,
+                albedo: Vec3::splat(*albedo),
+            }),
             SigmaMapping::MeanFreePath { percent, split } => {
                 let sigma_t_at_dmin = 1.0 / (percent / 100.0 * largest_extent);
                 Ok(Coefficients {
@@ -367,6 +408,9 @@ impl SigmaMapping {
             }
             SigmaMapping::Thesis { t, split } => {
                 format!("σt(d_min) = {t}, {}", split.describe())
+            }
+            SigmaMapping::Opacity { scale, albedo } => {
+                format!("σt = {scale} × −ln(1 − opacity)/unit distance, albedo {albedo} × colour")
             }
             SigmaMapping::MeanFreePath { percent, split } => {
                 format!(

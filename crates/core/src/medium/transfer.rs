@@ -7,6 +7,9 @@
 //! * [`TransferFunction::Points`] — piecewise-linear control points `[density, value]`.
 //! * [`TransferFunction::Threshold`] — the 16-bit rule: values below a raw threshold map to 0.
 //! * [`TransferFunction::Identity`].
+//! * [`TransferFunction::Colour`] — a colour + opacity function in data units
+//!   ([`ColourTransfer`]: points, a Slicer `.vp`/`.vp.json` file or a built-in preset); the
+//!   transferred density is the extinction per world unit, the colour the albedo.
 //!
 //! ```
 //! use volphot::TransferFunction;
@@ -19,6 +22,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::colour::ColourTransfer;
 use crate::error::{Error, Result};
 use crate::volume::NormalizationRecord;
 
@@ -43,6 +47,17 @@ pub enum TransferFunction {
         /// Threshold as written, in raw voxel units.
         raw: f64,
     },
+    /// Colour + opacity in data units: density becomes extinction per world unit.
+    Colour {
+        /// The function.
+        tf: Box<ColourTransfer>,
+        /// Raw value at normalised density 0.
+        raw_lo: f64,
+        /// Raw value at 1 minus raw value at 0.
+        raw_span: f64,
+        /// Millimetres per world unit (set by the scene from the volume's spacing).
+        mm_per_world: f64,
+    },
 }
 
 /// Transfer-function parameters as written in a scene's `[transfer]` table.
@@ -61,6 +76,18 @@ pub struct TransferParams {
     /// `threshold`: raw voxel value below which density is 0 (thesis: 16-bit data).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub threshold: Option<f64>,
+    /// `colour`: a built-in 3D Slicer preset (`CT-Bone`, `CT-AAA`, `MR-Default`, …).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preset: Option<String>,
+    /// `colour`: `[[value, opacity], …]` in data units (HU for CT), increasing values.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub opacity: Option<Vec<[f64; 2]>>,
+    /// `colour`: `[[value, r, g, b], …]` in data units, increasing values.
+    #[serde(default, skip_serializing_if = "Option::is_none", alias = "color")]
+    pub colour: Option<Vec<[f64; 4]>>,
+    /// `colour`: the opacity unit distance in mm (default: the file's, else 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unit_distance: Option<f64>,
 }
 
 /// The kind of transfer function a scene's `[transfer]` table asks for.
@@ -76,6 +103,11 @@ pub enum TransferKind {
     Points,
     /// The 16-bit rule: raw values below `threshold` map to 0.
     Threshold,
+    /// Colour + opacity in data units (`preset`, a `.vp`/`.vp.json` `file`, or `opacity`
+    /// and `colour` points); implied by any of `preset`, `opacity`, `colour` or a `.vp` /
+    /// `.vp.json` file.
+    #[serde(alias = "color")]
+    Colour,
 }
 
 impl TransferKind {
@@ -86,6 +118,7 @@ impl TransferKind {
             TransferKind::Pgm => "pgm",
             TransferKind::Points => "points",
             TransferKind::Threshold => "threshold",
+            TransferKind::Colour => "colour",
         }
     }
 }
@@ -97,6 +130,10 @@ impl Default for TransferParams {
             file: None,
             points: None,
             threshold: None,
+            preset: None,
+            opacity: None,
+            colour: None,
+            unit_distance: None,
         }
     }
 }
@@ -116,7 +153,29 @@ impl TransferFunction {
                 format!("no `{key}` with kind = \"{}\"", params.kind.name()),
             ))
         };
+        let slicer_file = params.file.as_ref().is_some_and(|f| {
+            let name = f.to_string_lossy().to_ascii_lowercase();
+            name.ends_with(".vp") || name.ends_with(".vp.json")
+        });
+        let colour_keys = params.preset.is_some()
+            || params.opacity.is_some()
+            || params.colour.is_some()
+            || params.unit_distance.is_some()
+            || slicer_file;
+        if params.kind == TransferKind::Colour
+            || (params.kind == TransferKind::Identity && colour_keys)
+        {
+            return Self::create_colour(params, base, normalization);
+        }
+        if colour_keys {
+            return Err(Error::parameter(
+                "kind",
+                params.kind.name(),
+                "kind = \"colour\" with `preset`, `opacity`, `colour` or `unit_distance`",
+            ));
+        }
         match params.kind {
+            TransferKind::Colour => unreachable!("handled above"),
             TransferKind::Identity => {
                 if params.file.is_some() {
                     unexpected("file")?;
@@ -168,6 +227,85 @@ impl TransferFunction {
                 let normalized = ((raw - lo) / (hi - lo)).clamp(0.0, 1.0) as f32;
                 Ok(TransferFunction::Threshold { normalized, raw })
             }
+        }
+    }
+
+    /// `kind = "colour"`: exactly one of `preset`, `file` (`.vp`, `.vp.json`) or the
+    /// `opacity` + `colour` points.
+    fn create_colour(
+        params: &TransferParams,
+        base: &Path,
+        normalization: &NormalizationRecord,
+    ) -> Result<Self> {
+        let given = [
+            params.preset.is_some(),
+            params.file.is_some(),
+            params.opacity.is_some() || params.colour.is_some(),
+        ];
+        if given.iter().filter(|g| **g).count() != 1 {
+            return Err(Error::parameter(
+                "preset",
+                format!("{} sources", given.iter().filter(|g| **g).count()),
+                "exactly one of `preset`, `file` (.vp or .vp.json) or `opacity` with `colour`",
+            ));
+        }
+        if params.points.is_some() || params.threshold.is_some() {
+            return Err(Error::parameter(
+                "points",
+                "(given)",
+                "no `points` or `threshold` with a colour transfer function",
+            ));
+        }
+        let mut tf = if let Some(name) = &params.preset {
+            ColourTransfer::preset(name)?
+        } else if let Some(file) = &params.file {
+            ColourTransfer::read(&base.join(file))?
+        } else {
+            let missing = |key: &str| {
+                Error::parameter(
+                    key,
+                    "(missing)",
+                    format!("`{key}` points with a colour transfer function"),
+                )
+            };
+            ColourTransfer {
+                source: "points".into(),
+                opacity: params.opacity.clone().ok_or_else(|| missing("opacity"))?,
+                colour: params.colour.clone().ok_or_else(|| missing("colour"))?,
+                unit_distance: 1.0,
+            }
+        };
+        if let Some(u) = params.unit_distance {
+            tf.unit_distance = u;
+        }
+        let tf = tf.validated("transfer")?;
+        Ok(TransferFunction::Colour {
+            tf: Box::new(tf),
+            raw_lo: normalization.raw_lo,
+            raw_span: normalization.raw_hi - normalization.raw_lo,
+            mm_per_world: 1.0,
+        })
+    }
+
+    /// The same function with extinction expressed per world unit when one world unit is
+    /// `mm` millimetres (only colour transfer functions depend on it).
+    pub fn with_world_scale(mut self, mm: f64) -> Self {
+        if let TransferFunction::Colour { mm_per_world, .. } = &mut self {
+            *mm_per_world = mm;
+        }
+        self
+    }
+
+    /// The albedo colour at normalised density `d`, for colour transfer functions.
+    pub fn colour_at(&self, d: f32) -> Option<[f32; 3]> {
+        match self {
+            TransferFunction::Colour {
+                tf,
+                raw_lo,
+                raw_span,
+                ..
+            } => Some(tf.colour(raw_lo + d as f64 * raw_span).map(|c| c as f32)),
+            _ => None,
         }
     }
 
@@ -265,6 +403,12 @@ impl TransferFunction {
                     d
                 }
             }
+            TransferFunction::Colour {
+                tf,
+                raw_lo,
+                raw_span,
+                mm_per_world,
+            } => (tf.extinction_per_mm(raw_lo + d as f64 * raw_span) * mm_per_world) as f32,
         }
     }
 
@@ -277,6 +421,9 @@ impl TransferFunction {
             TransferFunction::Threshold { raw, normalized } => {
                 format!("threshold {raw} (normalised {normalized})")
             }
+            TransferFunction::Colour {
+                tf, mm_per_world, ..
+            } => format!("{}, {mm_per_world} mm per world unit", tf.describe()),
         }
     }
 }

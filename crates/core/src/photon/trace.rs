@@ -242,13 +242,14 @@ fn trace_one(
         }
         // Russian roulette with the albedo (§5.1): survive with the mean albedo, keep the
         // expected per-channel power by re-weighting with albedo / mean albedo.
-        let survive = medium.mean_albedo();
+        let albedo = medium.albedo_at(position);
+        let survive = (albedo.x + albedo.y + albedo.z) / 3.0;
         if rng.uniform() >= survive {
             out.absorbed += 1;
             out.interactions += interactions as u64;
             return;
         }
-        power *= medium.albedo() / survive;
+        power *= albedo / survive;
         scattered += 1;
         let direction = medium.phase().sample(ray.direction, rng.uniform2());
         ray = Ray::new(position, direction);

@@ -13,12 +13,12 @@ use super::light::{Light, LightParams, ThreePointParams};
 use super::settings::{FilmParams, IntegratorParams};
 use crate::error::{Error, Result};
 use crate::medium::{
-    DEFAULT_BRICK_SIZE, Medium, MediumSettings, Phase, SigmaMapping, SigmaParams, TransferFunction,
-    TransferParams,
+    DEFAULT_BRICK_SIZE, MappingKind, Medium, MediumSettings, Phase, SigmaMapping, SigmaParams,
+    TransferFunction, TransferParams,
 };
 use crate::volume::{
     ByteOrder, DatasetOverrides, DicomInput, FileRequest, Normalization, PhantomParams, Placement,
-    RawLayout, Reconstruction, SearchPath, Volume, VoxelType, is_nifti, load_dataset,
+    RawLayout, Reconstruction, SearchPath, Volume, VolumeSource, VoxelType, is_nifti, load_dataset,
     read_dicom_volume, read_volume,
 };
 
@@ -419,11 +419,55 @@ pub fn load_volume(v: &VolumeParams, base: &Path, search: &SearchPath) -> Result
     }
 }
 
+/// Millimetres per world unit: the volume's physical size (spacing from DICOM/NIfTI, else
+/// `[volume] spacing`, else 1 mm per voxel) over its world box.
+fn mm_per_world(params: &SceneParams, volume: &Volume) -> f64 {
+    let spacing = match volume.source() {
+        VolumeSource::File {
+            acquisition: Some(a),
+            ..
+        } => a.spacing_mm,
+        _ => params.volume.spacing.unwrap_or([1.0; 3]).map(f64::from),
+    };
+    let dims = volume.grid().dims();
+    let extent_mm = (0..3)
+        .map(|a| dims[a] as f64 * spacing[a])
+        .fold(0.0, f64::max);
+    extent_mm / volume.grid().bounds().largest_extent() as f64
+}
+
+/// The σ mapping: a colour transfer function takes `mapping = "opacity"` (implied when
+/// `[sigma]` is left at its defaults); other transfer functions may not use it.
+fn colour_mapping(params: &SceneParams, transfer: &TransferFunction) -> Result<SigmaMapping> {
+    let colour = matches!(transfer, TransferFunction::Colour { .. });
+    let sigma = if colour && params.sigma == SigmaParams::default() {
+        SigmaParams {
+            mapping: MappingKind::Opacity,
+            ..SigmaParams::default()
+        }
+    } else {
+        params.sigma.clone()
+    };
+    if colour != (sigma.mapping == MappingKind::Opacity) {
+        return Err(Error::parameter(
+            "sigma.mapping",
+            sigma.mapping.name(),
+            if colour {
+                "\"opacity\" with a colour transfer function (σt comes from its opacity)"
+            } else {
+                "\"opacity\" only with a colour transfer function ([transfer] preset, file .vp or opacity/colour points)"
+            },
+        ));
+    }
+    SigmaMapping::create(&sigma).map_err(|e| e.within("sigma"))
+}
+
 /// Builds the medium for a scene from an already-loaded volume.
 pub fn build_medium(params: &SceneParams, volume: &Volume, base: &Path) -> Result<Medium> {
     let transfer = TransferFunction::create(&params.transfer, base, volume.normalization())
-        .map_err(|e| e.within("transfer"))?;
-    let mapping = SigmaMapping::create(&params.sigma).map_err(|e| e.within("sigma"))?;
+        .map_err(|e| e.within("transfer"))?
+        .with_world_scale(mm_per_world(params, volume));
+    let mapping = colour_mapping(params, &transfer)?;
     let phase = Phase::henyey_greenstein(params.phase.g)
         .map_err(|_| Error::parameter("phase.g", params.phase.g, "an asymmetry in (-1, 1)"))?;
     Medium::create(
