@@ -154,3 +154,34 @@ fn a_coloured_medium_renders_colour_in_every_layer() {
     let sum: Vec3 = out.film.total().iter().copied().sum();
     assert!(sum.x > 0.0 && sum.z == 0.0, "path tracer {sum:?}");
 }
+
+/// The colour scene presets for the real data load: each has a per-voxel colour, a finite
+/// σt range and some medium left after the opacity.
+#[test]
+fn real_data_colour_presets_load() {
+    if volphot::test_util::real_data_dir().is_none() {
+        volphot::test_util::skip(
+            "colour presets on real data",
+            "no real data (set VOLPHOT_DATA)",
+        );
+        return;
+    }
+    let scenes = volphot::test_util::workspace_root().join("experiments/scenes");
+    for name in [
+        "cranium-ct-bone",
+        "cranium-ct-soft-tissue",
+        "colin27-mr-default",
+        "engine-colour",
+    ] {
+        let path = scenes.join(format!("{name}.toml"));
+        let scene = Scene::load(&path, &volphot::test_util::search_path())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let medium = scene.medium();
+        assert!(medium.has_colour(), "{name}");
+        let report = medium.report();
+        assert!(
+            report.sigma_t_at_dmax.is_finite() && report.sigma_t_at_dmax > 0.0,
+            "{name}: {report:?}"
+        );
+    }
+}

@@ -419,3 +419,59 @@ fn cranium_ct_written_as_dicom_reads_back_voxel_for_voxel() {
         .position(|(a, &b)| *a != f32::from(b));
     assert_eq!(bad, None, "first differing voxel");
 }
+
+/// Benchmark, not a timed test (`cargo test -p volphot-core --test dicom -- --ignored
+/// --nocapture load_cost`): a generated 512-slice series of 256×256 signed CT slices
+/// against the same voxels as a RAW file, both read and normalised through the public
+/// loaders (each computes its content sha256). The issue asks for DICOM ≤ 2× RAW.
+#[test]
+#[ignore = "benchmark: prints the DICOM/RAW load-time ratio"]
+fn load_cost_of_a_512_slice_series_against_raw() {
+    use std::time::Instant;
+    let (n, nz) = (256usize, 512usize);
+    let dir = tempfile::tempdir().unwrap();
+    let series = dir.path().join("series");
+    std::fs::create_dir(&series).unwrap();
+    let mut raw = Vec::with_capacity(n * n * nz * 2);
+    for z in 0..nz {
+        let slice: Vec<i16> = (0..n * n)
+            .map(|i| ((i * 7 + z * 13) % 3000) as i16 - 1024)
+            .collect();
+        raw.extend(slice.iter().flat_map(|v| v.to_le_bytes()));
+        let spec = SliceSpec::ct(
+            "2.25.50",
+            &format!("2.25.50.{z}"),
+            z as f64 * 0.625,
+            [n as u16, n as u16],
+        );
+        let words: Vec<u16> = slice.iter().map(|&v| v as u16).collect();
+        write_slice(&series.join(format!("{z:04}.dcm")), &spec, &words).unwrap();
+    }
+    let raw_path = dir.path().join("same.raw");
+    std::fs::write(&raw_path, &raw).unwrap();
+    let request = volphot::FileRequest {
+        path: raw_path.clone(),
+        raw_layout: Some(volphot::RawLayout {
+            dims: [n, n, nz],
+            voxel: volphot::VoxelType::I16,
+            byte_order: volphot::ByteOrder::Little,
+            header_bytes: 0,
+        }),
+        placement: None,
+        normalization: None,
+        dataset: None,
+        expected_sha256: None,
+    };
+    let t = Instant::now();
+    let a = volphot::read_volume(&request).unwrap();
+    let raw_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let b = volphot::read_dicom_volume(&DicomInput::Folder(series), None, &request).unwrap();
+    let dicom_s = t.elapsed().as_secs_f64();
+    assert_eq!(a.grid().values(), b.grid().values());
+    println!(
+        "512-slice series ({} MiB of voxels): RAW {raw_s:.3} s, DICOM {dicom_s:.3} s, ratio {:.2}",
+        raw.len() >> 20,
+        dicom_s / raw_s
+    );
+}

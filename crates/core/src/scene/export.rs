@@ -78,6 +78,13 @@ fn check_exportable(scene: &Scene) -> Result<()> {
             "false for Mitsuba: its heterogeneous medium does not emit",
         ));
     }
+    if scene.medium().has_colour() {
+        return Err(Error::parameter(
+            "transfer",
+            scene.medium().transfer_description(),
+            "a grey transfer function for the Mitsuba export (a per-voxel colour albedo is not exported)",
+        ));
+    }
     Ok(())
 }
 

@@ -419,16 +419,21 @@ pub fn load_volume(v: &VolumeParams, base: &Path, search: &SearchPath) -> Result
     }
 }
 
-/// Millimetres per world unit: the volume's physical size (spacing from DICOM/NIfTI, else
-/// `[volume] spacing`, else 1 mm per voxel) over its world box.
-fn mm_per_world(params: &SceneParams, volume: &Volume) -> f64 {
-    let spacing = match volume.source() {
+/// Millimetres per world unit: the volume's physical size (its placement spacing, else the
+/// DICOM/NIfTI spacing, else 1 mm per voxel) over its world box.
+fn mm_per_world(volume: &Volume) -> f64 {
+    let acquired = match volume.source() {
         VolumeSource::File {
             acquisition: Some(a),
             ..
-        } => a.spacing_mm,
-        _ => params.volume.spacing.unwrap_or([1.0; 3]).map(f64::from),
+        } => Some(a.spacing_mm),
+        _ => None,
     };
+    let spacing = volume
+        .spacing()
+        .map(|s| s.map(f64::from))
+        .or(acquired)
+        .unwrap_or([1.0; 3]);
     let dims = volume.grid().dims();
     let extent_mm = (0..3)
         .map(|a| dims[a] as f64 * spacing[a])
@@ -466,7 +471,7 @@ fn colour_mapping(params: &SceneParams, transfer: &TransferFunction) -> Result<S
 pub fn build_medium(params: &SceneParams, volume: &Volume, base: &Path) -> Result<Medium> {
     let transfer = TransferFunction::create(&params.transfer, base, volume.normalization())
         .map_err(|e| e.within("transfer"))?
-        .with_world_scale(mm_per_world(params, volume));
+        .with_world_scale(mm_per_world(volume));
     let mapping = colour_mapping(params, &transfer)?;
     let phase = Phase::henyey_greenstein(params.phase.g)
         .map_err(|_| Error::parameter("phase.g", params.phase.g, "an asymmetry in (-1, 1)"))?;

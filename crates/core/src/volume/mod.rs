@@ -234,6 +234,7 @@ pub struct Volume {
     source: VolumeSource,
     normalization: NormalizationRecord,
     voxel_type: Option<VoxelType>,
+    spacing: Option<[f32; 3]>,
 }
 
 impl Volume {
@@ -297,7 +298,17 @@ impl Volume {
                 data_max: data_max as f64,
             },
             voxel_type,
+            spacing: match placement {
+                Placement::Spacing(s) => Some(s),
+                Placement::Box { .. } => None,
+            },
         })
+    }
+
+    /// The physical voxel spacing (mm for medical data) when the volume was placed by
+    /// spacing; `None` for an explicit world box.
+    pub fn spacing(&self) -> Option<[f32; 3]> {
+        self.spacing
     }
 
     /// Generates a procedural phantom.
