@@ -3,6 +3,7 @@
 //! * `runs` — experiments, reports, resuming, locking, errors, `sweep render`;
 //! * `reliability` — inputs and events that used to hang, exhaust memory or mislead;
 //! * `faults` — runs killed at many moments, damaged cells, a full file system;
+//! * `medical` — a DICOM folder with a Slicer preset, and a broken series;
 //! * `claims` — the thesis's findings that the committed studies reproduce, on small grids;
 //! * `browser` — `report.html` and its image explorer in headless Chromium;
 //! * `slurm` — a real single-node Slurm cluster (CI or `VOLPHOT_SLURM_TEST=1`);
@@ -14,6 +15,7 @@
 mod browser;
 mod claims;
 mod faults;
+mod medical;
 mod peer;
 mod reliability;
 mod runs;
