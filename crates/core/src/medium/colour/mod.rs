@@ -54,7 +54,8 @@ impl ColourTransfer {
         Ok(self)
     }
 
-    /// A built-in 3D Slicer preset (see [`presets::NAMES`]).
+    /// A built-in 3D Slicer preset by name (`CT-Bone`, `CT-AAA`, `MR-Default`, …; see
+    /// `crates/core/presets/slicer/`).
     pub fn preset(name: &str) -> Result<Self> {
         presets::get(name)
     }
