@@ -73,8 +73,7 @@ pub fn read_series(input: &DicomInput, series: Option<&str>) -> Result<(LoadedVo
             rescale.push(s.rescale);
         }
     }
-    let mut files: Vec<&Path> = slices.iter().map(|s| s.path.as_path()).collect();
-    files.dedup();
+    let files: std::collections::HashSet<&Path> = slices.iter().map(|s| s.path.as_path()).collect();
     let acquisition = Acquisition {
         format: "dicom".into(),
         series_uid: Some(first.series_uid.clone()),
