@@ -14,6 +14,7 @@
 //! optical depth linear within it), so the beam and point estimates share one model of the
 //! eye ray and agree as the step and radius shrink; the term no longer costs a k-NN query
 //! per step. The eye ray's end (box exit or the `termination` cut-off) clips every chord.
+//! In a colour medium Λ varies along a chord and is taken at its midpoint.
 
 use super::march::{Accumulator, Marcher, RaySample};
 use crate::math::Ray;
@@ -28,24 +29,37 @@ impl Marcher<'_> {
         };
         let (t_min, t_max) = (first.t_start, last.t_start + last.width);
         let samples = &acc.samples;
+        let medium = self.medium;
         let mut sum = [0.0f64; 3];
         beams.crossings(
             ray,
             (t_min, t_max),
             Gathered::Fluence,
-            self.medium.phase(),
+            medium.phase(),
             &mut acc.stack,
             |crossing| {
                 let through = (-optical_depth_at(samples, crossing.t_enter)).exp()
                     - (-optical_depth_at(samples, crossing.t_exit)).exp();
-                for (s, d) in sum.iter_mut().zip(crossing.density.to_array()) {
+                // A colour medium's albedo varies along the chord: taken at its midpoint
+                // (exact as the radius shrinks); a grey medium's is the constant Λ.
+                let term = if medium.has_colour() {
+                    let mid = ray.at(0.5 * (crossing.t_enter + crossing.t_exit));
+                    crossing.density * medium.albedo_at(mid)
+                } else {
+                    crossing.density
+                };
+                for (s, d) in sum.iter_mut().zip(term.to_array()) {
                     *s += d as f64 * through as f64;
                 }
             },
         );
         acc.counters.gathers += 1;
         let sum = glam::Vec3::new(sum[0] as f32, sum[1] as f32, sum[2] as f32);
-        acc.multiple[0] += self.medium.albedo() * sum;
+        acc.multiple[0] += if medium.has_colour() {
+            sum
+        } else {
+            medium.albedo() * sum
+        };
     }
 }
 
