@@ -31,6 +31,15 @@ fn chromium() -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
+/// A fresh folder under target/tmp, kept after the test so that its screenshots can be
+/// looked at.
+fn kept_dir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
 /// A small phantom sweep with every kind of figure: contact sheet, plot, layer differences,
 /// reference comparison.
 fn small_report(dir: &Path) -> PathBuf {
@@ -195,10 +204,7 @@ fn html_report_renders_in_chromium() {
         );
         return;
     };
-    // Kept under target/tmp so that the screenshot can be looked at after the test.
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("browser-report");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = kept_dir("browser-report");
     let out = small_report(&dir);
 
     let browser = launch(chrome);

@@ -12,6 +12,34 @@ use crate::{Scene, SceneParams, SearchPath};
 pub const SMALL_SCENE: &str =
     "[volume]\nphantom = { name = \"sphere\", resolution = [8, 8, 8] }\n[three_point]\n";
 
+/// A small scattering scene: a sphere (σt = 3, albedo 0.8, mean free path 33 % of the box)
+/// lit by one spot light.
+pub const SPOT_SPHERE: &str = r#"
+[volume]
+phantom = { name = "sphere", resolution = [24, 24, 24], radius = 0.4 }
+[sigma]
+mapping = "thesis"
+t = 3
+albedo = 0.8
+[camera]
+eye = [0.5, -1.8, 0.5]
+look_at = [0.5, 0.5, 0.5]
+up = [0, 0, 1]
+fov = 36
+resolution = [20, 20]
+[[lights]]
+type = "spot"
+position = [-0.8, -0.6, 1.6]
+target = [0.5, 0.5, 0.5]
+intensity = 10
+cone_angle = 14
+beam_width = 12
+[integrator]
+stepsize = 0.002
+maxdist = 0.25
+reference_spp = 1024
+"#;
+
 /// Builds a scene from inline TOML (phantoms only, so no data files are needed).
 pub fn scene(src: &str) -> Scene {
     let params = SceneParams::from_toml(src, Path::new("inline.toml")).expect("valid test scene");

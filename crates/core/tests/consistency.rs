@@ -10,32 +10,16 @@ use volphot::{
     render_reference,
 };
 
-/// A sphere (σt = 3, albedo 0.8) lit by a spot light; multiple scattering only.
-const SPHERE: &str = r#"
-[volume]
-phantom = { name = "sphere", resolution = [24, 24, 24], radius = 0.4 }
-[sigma]
-mapping = "thesis"
-t = 3
-albedo = 0.8
-[camera]
-eye = [0.5, -1.8, 0.5]
-look_at = [0.5, 0.5, 0.5]
-up = [0, 0, 1]
-fov = 36
-resolution = [16, 16]
-[[lights]]
-type = "spot"
-position = [-0.8, -0.6, 1.6]
-target = [0.5, 0.5, 0.5]
-intensity = 10
-cone_angle = 14
-beam_width = 12
-[integrator]
-single = false
-stepsize = 0.004
-spp = 16
-"#;
+/// The shared spot-lit sphere (σt = 3, albedo 0.8) at 16×16, multiple scattering only.
+fn sphere() -> Scene {
+    let src = common::SPOT_SPHERE.replace("resolution = [20, 20]", "resolution = [16, 16]");
+    with(&common::scene(&src), |s| {
+        s.single = false;
+        s.stepsize = 0.004;
+        s.spp = 16;
+        s.maxdist = 0.1;
+    })
+}
 
 /// Two slabs along x (σt 2 for x < ½, 8 beyond: a fluence gradient and a kink at the
 /// interface), lit from the thin side, seen from the front.
@@ -88,7 +72,7 @@ fn excess_error(image: &[glam::Vec3], reference: &[glam::Vec3], noise: f64) -> f
 
 #[test]
 fn beam_estimate_equals_the_point_estimate_as_the_step_shrinks() {
-    let base = common::scene(SPHERE);
+    let base = sphere();
     let map = build_photon_map(
         &with(&base, |s| s.volume_photons = 20_000),
         &Control::none(),
@@ -157,8 +141,7 @@ fn convergence(
 
 #[test]
 fn progressive_points_and_beams_converge_to_the_reference() {
-    for (name, src) in [("sphere", SPHERE), ("two-slab", TWO_SLAB)] {
-        let scene = common::scene(src);
+    for (name, scene) in [("sphere", sphere()), ("two-slab", common::scene(TWO_SLAB))] {
         let reference = reference(&scene, 8192);
         for estimator in [MsEstimator::Progressive, MsEstimator::Beam] {
             let (errors, ratio) = convergence(&scene, &reference, estimator);
@@ -182,7 +165,7 @@ fn progressive_points_and_beams_converge_to_the_reference() {
 
 #[test]
 fn every_iteration_carries_the_same_power() {
-    let scene = with(&common::scene(SPHERE), |s| {
+    let scene = with(&sphere(), |s| {
         s.estimator = MsEstimator::Progressive;
         s.iterations = 6;
         s.photons_per_iteration = 20_000;

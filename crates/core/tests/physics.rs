@@ -291,37 +291,9 @@ fn photon_free_path_rules_differ_only_for_thesis_rule() {
     );
 }
 
-/// A small scattering scene: a sphere (σt = 3, albedo 0.8, mean free path 33 % of the box)
-/// lit by one spot light.
-const SPHERE: &str = r#"
-[volume]
-phantom = { name = "sphere", resolution = [24, 24, 24], radius = 0.4 }
-[sigma]
-mapping = "thesis"
-t = 3
-albedo = 0.8
-[camera]
-eye = [0.5, -1.8, 0.5]
-look_at = [0.5, 0.5, 0.5]
-up = [0, 0, 1]
-fov = 36
-resolution = [20, 20]
-[[lights]]
-type = "spot"
-position = [-0.8, -0.6, 1.6]
-target = [0.5, 0.5, 0.5]
-intensity = 10
-cone_angle = 14
-beam_width = 12
-[integrator]
-stepsize = 0.002
-maxdist = 0.25
-reference_spp = 1024
-"#;
-
 #[test]
 fn photon_integrator_agrees_with_reference_and_converges() {
-    let base = common::scene(SPHERE);
+    let base = common::scene(common::SPOT_SPHERE);
     let (reference, _) = render_reference(&base, 4096, &Control::none()).unwrap();
     let ref_single = reference.layer(Layer::Single);
     let ref_multiple = reference.layer(Layer::Multiple);
@@ -397,7 +369,7 @@ fn photon_integrator_agrees_with_reference_and_converges() {
 
 #[test]
 fn same_seed_gives_bit_identical_images_with_one_and_two_threads() {
-    let scene = common::scene(&SPHERE.replace(
+    let scene = common::scene(&common::SPOT_SPHERE.replace(
         "reference_spp = 1024",
         "volume_photons = 5000\nshadow = \"ratio\"",
     ));

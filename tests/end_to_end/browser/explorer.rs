@@ -15,7 +15,7 @@ use serde_json::Value;
 use volphot::{Film, Layer};
 use volphot_tests::{run_ok, skip, sweep};
 
-use super::{chromium, launch, open_report, small_report, watch_console};
+use super::{chromium, kept_dir, launch, open_report, small_report, watch_console};
 
 /// Evaluates `expr` in the page (awaiting it when it is a promise) and returns its value as
 /// JSON.
@@ -482,9 +482,7 @@ fn explorer_picks_flips_zooms_and_reads_pixels_in_chromium() {
         );
         return;
     };
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("browser-explorer");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = kept_dir("browser-explorer");
     let out = small_report(&dir);
     let browser = launch(chrome);
     let tab = browser.new_tab().unwrap();

@@ -16,7 +16,7 @@ use volphot::Film;
 use volphot_tests::skip;
 
 use super::explorer::{brightest, cell_at, check_readout, film_of};
-use super::small_report;
+use super::{kept_dir, small_report};
 
 /// Firefox from `$FIREFOX` or the usual Debian paths.
 fn firefox() -> Option<PathBuf> {
@@ -116,9 +116,7 @@ fn explorer_works_from_file_in_firefox() {
         );
         return;
     };
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("browser-firefox");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = kept_dir("browser-firefox");
     let out = small_report(&dir).canonicalize().unwrap();
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     let m: Value = {

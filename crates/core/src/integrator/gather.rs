@@ -26,6 +26,18 @@ pub struct MsVariant {
     pub estimate: Estimate,
 }
 
+impl MsVariant {
+    /// The scene's own estimate on the first photon map.
+    pub(super) fn of_scene(settings: &IntegratorParams) -> Self {
+        MsVariant {
+            map: 0,
+            nused: settings.nused,
+            maxdist: settings.maxdist,
+            estimate: settings.estimate,
+        }
+    }
+}
+
 /// The variants that share one photon map, and thus one k-NN query per sample.
 pub(super) struct MapGroup<'a> {
     pub(super) map: &'a PhotonMap,

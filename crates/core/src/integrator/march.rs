@@ -205,12 +205,7 @@ pub fn render_march(
 ) -> Result<MarchOutput> {
     let settings = scene.integrator();
     let medium = scene.medium();
-    let own = [MsVariant {
-        map: 0,
-        nused: settings.nused,
-        maxdist: settings.maxdist,
-        estimate: settings.estimate,
-    }];
+    let own = [MsVariant::of_scene(settings)];
     let variants: &[MsVariant] = if !settings.multiple {
         &[]
     } else if variants.is_empty() {
@@ -238,12 +233,7 @@ pub fn render_march_beams(
     control: &Control<'_>,
 ) -> Result<MarchOutput> {
     let settings = scene.integrator();
-    let own = [MsVariant {
-        map: 0,
-        nused: settings.nused,
-        maxdist: settings.maxdist,
-        estimate: settings.estimate,
-    }];
+    let own = [MsVariant::of_scene(settings)];
     let variants: &[MsVariant] = if settings.multiple { &own } else { &[] };
     run_march(scene, variants, Vec::new(), Some(beams), control)
 }

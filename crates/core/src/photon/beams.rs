@@ -265,24 +265,11 @@ fn slab_hit(min: Vec3, max: Vec3, origin: Vec3, inv_dir: Vec3, t_min: f32, t_max
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::photon::{Photon, PhotonStats};
-
-    fn cloud(n: usize) -> PhotonMap {
-        let mut rng = crate::math::Rng::stream(7, crate::math::Domain::Pixels, 0);
-        let photons = (0..n)
-            .map(|_| Photon {
-                position: Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()),
-                direction: Vec3::X,
-                power: Vec3::ONE,
-                sigma_t: 2.0,
-            })
-            .collect();
-        PhotonMap::new(photons, PhotonStats::default())
-    }
+    use crate::photon::map::uniform_cloud;
 
     #[test]
     fn the_hierarchy_finds_exactly_the_spheres_a_ray_crosses() {
-        let map = cloud(3000);
+        let map = uniform_cloud(3000, 1.0, 7);
         let scene = crate::test_util::scene(crate::test_util::SMALL_SCENE);
         let beams = BeamMap::new(&map, BeamRadius::Fixed(0.03), scene.medium(), false);
         let mut rng = crate::math::Rng::stream(3, crate::math::Domain::Pixels, 1);
@@ -323,7 +310,7 @@ mod tests {
 
     #[test]
     fn nearest_radii_are_the_kth_neighbour_distance() {
-        let map = cloud(2000);
+        let map = uniform_cloud(2000, 1.0, 7);
         let radii = photon_radii(
             &map,
             BeamRadius::Nearest {

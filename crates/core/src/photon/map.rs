@@ -267,30 +267,32 @@ impl PhotonMap {
     }
 }
 
+/// `n` photons of power `power` uniform in the unit cube (tests of the photon stage).
+#[cfg(test)]
+pub(super) fn uniform_cloud(n: usize, power: f32, seed: u64) -> PhotonMap {
+    let mut rng = crate::math::Rng::stream(seed, crate::math::Domain::Misc, 0);
+    let photons = (0..n)
+        .map(|_| Photon {
+            position: Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()),
+            direction: Vec3::Z,
+            power: Vec3::splat(power),
+            sigma_t: 1.0,
+        })
+        .collect();
+    PhotonMap::new(photons, PhotonStats::default())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::math::{Domain, Rng};
-
-    fn uniform_cloud(n: usize, power: f32) -> PhotonMap {
-        let mut rng = Rng::stream(2, Domain::Misc, 0);
-        let photons = (0..n)
-            .map(|_| Photon {
-                position: Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()),
-                direction: Vec3::Z,
-                power: Vec3::splat(power),
-                sigma_t: 1.0,
-            })
-            .collect();
-        PhotonMap::new(photons, PhotonStats::default())
-    }
 
     #[test]
     fn estimate_of_uniform_density_is_flux_per_volume_times_phase() {
         // n photons of power q uniformly in the unit cube: Σ ΔΦ / V → n·q, times 1/(4π).
         let n = 200_000;
         let q = 1e-5;
-        let map = uniform_cloud(n, q);
+        let map = uniform_cloud(n, q, 2);
         let expected = n as f32 * q * crate::math::INV_4PI;
         let est = map.estimate(Vec3::splat(0.5), Vec3::X, 400, 0.3, Phase::ISOTROPIC);
         assert!(
@@ -302,7 +304,7 @@ mod tests {
 
     #[test]
     fn variants_match_separate_queries_and_radius_rule() {
-        let map = uniform_cloud(5000, 1.0);
+        let map = uniform_cloud(5000, 1.0, 2);
         let p = Vec3::new(0.3, 0.6, 0.4);
         let variants = [
             GatherVariant {
@@ -360,7 +362,7 @@ mod tests {
             let mut sum = 0.0f64;
             let mut rng = Rng::stream(11, Domain::Misc, nused as u64);
             for m in 0..maps {
-                let map = uniform_cloud_seeded(photons_per_map, 1.0, 1000 + m);
+                let map = uniform_cloud(photons_per_map, 1.0, 1000 + m);
                 // Interior points: the query sphere stays inside the cube.
                 let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 0.5 + 0.25;
                 sum += map.estimate(p, Vec3::X, nused, 0.2, Phase::ISOTROPIC).x as f64;
@@ -375,19 +377,6 @@ mod tests {
                 nused as f64 / (nused as f64 - 1.0)
             );
         }
-    }
-
-    fn uniform_cloud_seeded(n: usize, power: f32, seed: u64) -> PhotonMap {
-        let mut rng = Rng::stream(seed, Domain::Misc, 0);
-        let photons = (0..n)
-            .map(|_| Photon {
-                position: Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()),
-                direction: Vec3::Z,
-                power: Vec3::splat(power),
-                sigma_t: 1.0,
-            })
-            .collect();
-        PhotonMap::new(photons, PhotonStats::default())
     }
 
     #[test]

@@ -333,20 +333,8 @@ impl FixedSum {
 mod tests {
     use super::*;
     use crate::math::{Domain, Rng};
+    use crate::photon::map::uniform_cloud;
     use crate::photon::{Photon, PhotonStats};
-
-    fn uniform_cloud(n: usize) -> PhotonMap {
-        let mut rng = Rng::stream(2, Domain::Misc, 0);
-        let photons = (0..n)
-            .map(|_| Photon {
-                position: Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()),
-                direction: Vec3::Z,
-                power: Vec3::ONE,
-                sigma_t: 1.0,
-            })
-            .collect();
-        PhotonMap::new(photons, PhotonStats::default())
-    }
 
     /// Every photon within `maxdist`, sorted: the brute-force answer.
     fn brute_gather(map: &PhotonMap, p: Vec3, k: usize, maxdist: f32) -> Vec<u64> {
@@ -366,7 +354,7 @@ mod tests {
 
     #[test]
     fn gathers_reusing_candidates_along_a_path_equal_brute_force_ones() {
-        let map = uniform_cloud(20_000);
+        let map = uniform_cloud(20_000, 1.0, 2);
         let mut rng = Rng::stream(5, Domain::Misc, 0);
         let mut neighbours = Neighbours::default();
         let mut p = Vec3::splat(0.5);
@@ -394,7 +382,7 @@ mod tests {
 
     #[test]
     fn range_queries_gather_every_photon_within_the_radius() {
-        let map = uniform_cloud(5000);
+        let map = uniform_cloud(5000, 1.0, 2);
         let mut neighbours = Neighbours::default();
         for (i, p) in [
             Vec3::splat(0.5),
@@ -411,7 +399,7 @@ mod tests {
 
     #[test]
     fn candidates_of_another_map_are_not_reused() {
-        let (a, b) = (uniform_cloud(5000), uniform_cloud(7000));
+        let (a, b) = (uniform_cloud(5000, 1.0, 2), uniform_cloud(7000, 1.0, 2));
         let mut neighbours = Neighbours::default();
         let p = Vec3::splat(0.5);
         gathered(&mut neighbours, &a, p, 50, 0.2);
