@@ -3,6 +3,7 @@
 //! * `runs` — experiments, reports, resuming, locking, errors, `sweep render`;
 //! * `reliability` — inputs and events that used to hang, exhaust memory or mislead;
 //! * `faults` — runs killed at many moments, damaged cells, a full file system;
+//! * `import` — the thesis's pbrt-v1 scenes through `sweep import`;
 //! * `medical` — a DICOM folder with a Slicer preset, and a broken series;
 //! * `claims` — the thesis's findings that the committed studies reproduce, on small grids;
 //! * `browser` — `report.html` and its image explorer in headless Chromium;
@@ -15,6 +16,7 @@
 mod browser;
 mod claims;
 mod faults;
+mod import;
 mod medical;
 mod peer;
 mod reliability;

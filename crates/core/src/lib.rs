@@ -95,10 +95,10 @@ pub use render::{
 pub use scene::{
     BoxParams, Camera, CameraParams, DEFAULT_ALPHA, Estimate, FilmParams, Incident, InitialRadius,
     IntegratorParams, Intensity, Light, LightKind, LightParams, MAX_MARCH_STEPS, Method,
-    MitsubaExport, MsEstimator, NormalizeKind, PhaseParams, PointLight, Quadrature, Scene,
-    SceneParams, ShadowEstimator, SpotLight, ThreePointParams, VolumeParams, build_medium,
-    export_mitsuba, key_at, line_col, load_params, load_volume, locate, locate_error, three_point,
-    toml_error, validate_params,
+    MitsubaExport, MsEstimator, NormalizeKind, PbrtImport, PhaseParams, PointLight, Quadrature,
+    Scene, SceneParams, ShadowEstimator, SpotFalloff, SpotLight, ThreePointParams, Unmapped,
+    VolumeParams, build_medium, export_mitsuba, import_pbrt, key_at, line_col, load_params,
+    load_volume, locate, locate_error, three_point, toml_error, validate_params,
 };
 pub use util::{
     cache_dir, hostname, is_stale_temp, memory_budget_bytes, peak_memory_bytes,

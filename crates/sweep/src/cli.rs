@@ -102,6 +102,26 @@ pub(crate) enum Command {
         after_help = "Example:\n  sweep export experiments/scenes/phantom-head.toml --format mitsuba -o peer/\n  mitsuba -D max_depth=2 peer/phantom-head.xml      (single scattering)"
     )]
     Export(ExportArgs),
+    /// Import a scene of the thesis's pbrt-v1 system (`Volume "rawvolumegrid"`,
+    /// `VolumeIntegrator "volphotonmap"`, camera, film, spot and point lights) as a volphot
+    /// scene file; every line that has no volphot meaning is named.
+    #[command(
+        after_help = "Example:\n  sweep import thesis/foot.pbrt -o experiments/scenes/foot-thesis.toml\n  sweep render experiments/scenes/foot-thesis.toml -o out/"
+    )]
+    Import(ImportArgs),
+}
+
+/// `sweep import`.
+#[derive(Debug, Args)]
+pub(crate) struct ImportArgs {
+    /// The pbrt-v1 scene file.
+    pub(crate) scene: PathBuf,
+    /// The volphot scene file to write (paths in it are made relative to its folder).
+    #[arg(short, long)]
+    pub(crate) output: PathBuf,
+    /// Replace an existing output file.
+    #[arg(long)]
+    pub(crate) force: bool,
 }
 
 /// `sweep export`.

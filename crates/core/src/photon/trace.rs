@@ -273,6 +273,7 @@ mod tests {
             intensity: Intensity::Grey(intensity),
             cone_angle: None,
             beam_width: None,
+            falloff: None,
         })
         .unwrap()
     }

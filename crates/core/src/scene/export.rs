@@ -78,6 +78,17 @@ fn check_exportable(scene: &Scene) -> Result<()> {
             "false for Mitsuba: its heterogeneous medium does not emit",
         ));
     }
+    for (i, light) in scene.lights().iter().enumerate() {
+        if let super::Light::Spot(s) = light
+            && s.falloff_shape() != super::SpotFalloff::Linear
+        {
+            return Err(Error::parameter(
+                format!("lights[{i}].falloff"),
+                "\"pbrt\"",
+                "\"linear\" for Mitsuba: its spot light falls off linearly in angle",
+            ));
+        }
+    }
     if scene.medium().has_colour() {
         return Err(Error::parameter(
             "transfer",

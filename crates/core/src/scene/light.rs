@@ -5,7 +5,10 @@
 //! * spot light: `I·falloff(θ)/r²` with θ the angle to the axis; `falloff = 1` for
 //!   `θ ≤ beam_width`, falling linearly in angle to 0 at `θ = cone_angle`.
 //!   Its power is `Φ = 2π·I·(1 + (sin θw − sin θc)/(θc − θw))` (→ `2π·I·(1 − cos θc)` when
-//!   `θw = θc`).
+//!   `θw = θc`). With `falloff = "pbrt"` the band between the angles follows pbrt-v1's
+//!   `SpotLight::Falloff` instead, `((cos θ − cos θc)/(cos θw − cos θc))⁴`, so scenes
+//!   imported from the thesis's pbrt files light the volume as they did there; its power is
+//!   `Φ = 2π·I·((1 − cos θw) + (cos θw − cos θc)/5)`.
 
 use std::f32::consts::PI;
 
@@ -36,6 +39,21 @@ pub struct LightParams {
     /// `spot`: angle from the axis where the falloff starts, degrees.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub beam_width: Option<f32>,
+    /// `spot`: the shape of the falloff between `beam_width` and `cone_angle`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub falloff: Option<SpotFalloff>,
+}
+
+/// How a spot light's intensity falls from the beam width to the cone angle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SpotFalloff {
+    /// Linearly in angle (Mitsuba's and pbrt-v4's convention before smoothstep).
+    #[default]
+    Linear,
+    /// pbrt-v1's quartic in cosine, `((cos θ − cos θc)/(cos θw − cos θc))⁴` (thesis §7,
+    /// the renderer the study's scenes were written for).
+    Pbrt,
 }
 
 /// The kind of a light (`type = "spot"` or `"point"` in a scene).
@@ -77,6 +95,8 @@ pub struct SpotLight {
     cone_angle: f32,
     beam_width: f32,
     cos_cone: f32,
+    cos_beam: f32,
+    shape: SpotFalloff,
 }
 
 /// A point light.
@@ -137,6 +157,7 @@ impl Light {
                     ("target", params.target.is_some()),
                     ("cone_angle", params.cone_angle.is_some()),
                     ("beam_width", params.beam_width.is_some()),
+                    ("falloff", params.falloff.is_some()),
                 ] {
                     if present {
                         return Err(Error::parameter(
@@ -157,7 +178,9 @@ impl Light {
                 })?;
                 let cone = params.cone_angle.unwrap_or(30.0);
                 let beam = params.beam_width.unwrap_or(cone * 0.8);
-                SpotLight::new(position, Vec3::from(target), intensity, cone, beam).map(Light::Spot)
+                let shape = params.falloff.unwrap_or_default();
+                SpotLight::new(position, Vec3::from(target), intensity, cone, beam)
+                    .map(|s| Light::Spot(s.with_falloff(shape)))
             }
         }
     }
@@ -173,6 +196,7 @@ impl Light {
                 intensity: Intensity::Rgb(p.intensity.to_array()),
                 cone_angle: None,
                 beam_width: None,
+                falloff: None,
             },
             Light::Spot(s) => LightParams {
                 kind: LightKind::Spot,
@@ -181,6 +205,7 @@ impl Light {
                 intensity: Intensity::Rgb(s.intensity.to_array()),
                 cone_angle: Some(s.cone_angle.to_degrees()),
                 beam_width: Some(s.beam_width.to_degrees()),
+                falloff: (s.shape != SpotFalloff::Linear).then_some(s.shape),
             },
         }
     }
@@ -280,7 +305,19 @@ impl SpotLight {
             cone_angle: cone,
             beam_width: beam_width_deg.to_radians(),
             cos_cone: cone.cos(),
+            cos_beam: beam_width_deg.to_radians().cos(),
+            shape: SpotFalloff::Linear,
         })
+    }
+
+    /// The same light with another falloff shape.
+    pub fn with_falloff(self, shape: SpotFalloff) -> Self {
+        SpotLight { shape, ..self }
+    }
+
+    /// The falloff shape.
+    pub fn falloff_shape(&self) -> SpotFalloff {
+        self.shape
     }
 
     /// Falloff for a unit direction leaving the light.
@@ -289,6 +326,14 @@ impl SpotLight {
         let c = w.dot(self.frame.w);
         if c < self.cos_cone {
             return 0.0;
+        }
+        if self.shape == SpotFalloff::Pbrt {
+            // pbrt-v1 lights/spot.cpp: 1 inside the beam, then δ⁴ with δ linear in cos θ.
+            if c > self.cos_beam {
+                return 1.0;
+            }
+            let delta = (c - self.cos_cone) / (self.cos_beam - self.cos_cone);
+            return (delta * delta) * (delta * delta);
         }
         let theta = c.clamp(-1.0, 1.0).acos();
         if theta <= self.beam_width {
@@ -301,6 +346,10 @@ impl SpotLight {
     /// `∫ falloff dω` (sr).
     pub fn solid_angle_weight(&self) -> f32 {
         let (tw, tc) = (self.beam_width, self.cone_angle);
+        if self.shape == SpotFalloff::Pbrt {
+            // ∫ δ⁴ d(cos θ) over the band = (cos θw − cos θc)/5.
+            return 2.0 * PI * ((1.0 - self.cos_beam) + (self.cos_beam - self.cos_cone) / 5.0);
+        }
         if tc - tw < 1e-6 {
             return 2.0 * PI * (1.0 - tc.cos());
         }
@@ -433,8 +482,12 @@ mod tests {
 
     #[test]
     fn spot_power_matches_numerical_integral() {
-        for (cone, beam) in [(30.0, 20.0), (45.0, 45.0), (60.0, 5.0)] {
-            let s = spot(cone, beam);
+        let shapes = [SpotFalloff::Linear, SpotFalloff::Pbrt];
+        for ((cone, beam), shape) in [(30.0, 20.0), (45.0, 45.0), (60.0, 5.0)]
+            .into_iter()
+            .flat_map(|a| shapes.map(|s| (a, s)))
+        {
+            let s = spot(cone, beam).with_falloff(shape);
             let n = 200_000;
             let integral: f32 = (0..n)
                 .map(|i| {
@@ -447,7 +500,7 @@ mod tests {
                 * PI;
             assert!(
                 (integral - s.solid_angle_weight()).abs() < 1e-3,
-                "{cone}/{beam}"
+                "{cone}/{beam} {shape:?}"
             );
         }
     }
@@ -466,6 +519,25 @@ mod tests {
         assert_eq!(at(19.9), 1.0);
         assert!((at(25.0) - 0.5).abs() < 1e-3);
         assert_eq!(at(31.0), 0.0);
+    }
+
+    #[test]
+    fn pbrt_falloff_is_quartic_in_cosine() {
+        // pbrt-v1 defaults: coneangle 30, conedeltaangle 5 → falloff starts at 25°.
+        let s = spot(30.0, 25.0).with_falloff(SpotFalloff::Pbrt);
+        let at = |deg: f32| {
+            let t = deg.to_radians();
+            s.falloff(Vec3::new(t.sin(), 0.0, t.cos()))
+        };
+        assert_eq!(at(24.9), 1.0);
+        assert_eq!(at(30.1), 0.0);
+        let (ct, cs) = (30f32.to_radians().cos(), 25f32.to_radians().cos());
+        let delta = (27.5f32.to_radians().cos() - ct) / (cs - ct);
+        assert!((at(27.5) - delta.powi(4)).abs() < 1e-5);
+        assert!(
+            at(27.5) < 0.1,
+            "quartic: far below the linear 0.5 at mid-band"
+        );
     }
 
     #[test]
@@ -491,6 +563,7 @@ mod tests {
             intensity: Intensity::Grey(8.0),
             cone_angle: None,
             beam_width: None,
+            falloff: None,
         })
         .unwrap();
         let inc = l.incident(Vec3::ZERO).unwrap();

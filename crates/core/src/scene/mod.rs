@@ -39,6 +39,7 @@ mod diagnostics;
 mod export;
 mod light;
 mod params;
+mod pbrt;
 mod settings;
 
 use std::path::Path;
@@ -48,13 +49,14 @@ pub use camera::{Camera, CameraParams};
 pub use diagnostics::{key_at, line_col, locate, locate_error, toml_error};
 pub use export::{MitsubaExport, export_mitsuba};
 pub use light::{
-    Incident, Intensity, Light, LightKind, LightParams, PointLight, SpotLight, ThreePointParams,
-    three_point,
+    Incident, Intensity, Light, LightKind, LightParams, PointLight, SpotFalloff, SpotLight,
+    ThreePointParams, three_point,
 };
 pub use params::{
     BoxParams, NormalizeKind, PhaseParams, SceneParams, VolumeParams, build_medium, load_params,
     load_volume, validate_params,
 };
+pub use pbrt::{PbrtImport, Unmapped, import_pbrt};
 pub use settings::{
     DEFAULT_ALPHA, Estimate, FilmParams, InitialRadius, IntegratorParams, Method, MsEstimator,
     Quadrature, ShadowEstimator,

@@ -3,6 +3,7 @@
 mod bench;
 mod datasets;
 mod export;
+mod import;
 mod peer;
 mod plan;
 mod render;
@@ -28,6 +29,7 @@ pub(crate) fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Status(a) => status::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::Export(a) => export::run(&a),
+        Command::Import(a) => import::run(&a),
         Command::Tune(a) => crate::tune::run(&a.options()?),
     }
 }
