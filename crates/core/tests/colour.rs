@@ -172,6 +172,8 @@ fn real_data_colour_presets_load() {
         "cranium-ct-soft-tissue",
         "colin27-mr-default",
         "engine-colour",
+        "cthead-ct-bone",
+        "foot-colour",
     ] {
         let path = scenes.join(format!("{name}.toml"));
         let scene = Scene::load(&path, &volphot::test_util::search_path())
@@ -184,4 +186,100 @@ fn real_data_colour_presets_load() {
             "{name}: {report:?}"
         );
     }
+}
+
+/// `emission_colour`: the emission is `Le · colour(x) · d(x)` — the preset's colour glows,
+/// in the emission layer only when single and multiple scattering are off; without a
+/// colour transfer function or without `emission` it is an error naming the key.
+#[test]
+fn emission_takes_the_colour_of_the_transfer_function() {
+    let glowing = RED_SPHERE.replace(
+        "[camera]",
+        "[sigma]\nemission = [2, 2, 2]\nemission_colour = true\n[camera]",
+    );
+    let scene = volphot::test_util::scene(&format!(
+        "{glowing}emission = true\nsingle = false\nmultiple = false\n"
+    ));
+    let medium = scene.medium();
+    let centre = Vec3::splat(0.5);
+    let expected = Vec3::new(0.9, 0.2, 0.0) * 2.0 * medium.density(centre);
+    assert!(medium.density(centre) > 0.0);
+    assert!(
+        (medium.emission(centre) - expected).length() < 1e-5 * expected.length(),
+        "{} vs {expected}",
+        medium.emission(centre)
+    );
+    let out = render(&scene, &Control::none()).unwrap();
+    let sum: Vec3 = out.film.layer(Layer::Emission).iter().copied().sum();
+    assert!(sum.x > 0.0 && sum.z == 0.0, "{sum:?}");
+    assert!(
+        (sum.x / sum.y - 4.5).abs() < 1e-3,
+        "red/green {}",
+        sum.x / sum.y
+    );
+    for layer in [Layer::Single, Layer::Multiple] {
+        assert!(out.film.layer(layer).iter().all(|v| *v == Vec3::ZERO));
+    }
+
+    let grey = "[volume]\nphantom = { name = \"sphere\", resolution = [8, 8, 8] }\n[sigma]\nemission = [1, 1, 1]\nemission_colour = true\n[three_point]\n";
+    let dir = tempfile::tempdir().unwrap();
+    let e = scene_in(dir.path(), grey).err().unwrap().to_string();
+    assert!(
+        e.contains("sigma.emission_colour") && e.contains("colour transfer function"),
+        "{e}"
+    );
+    let unscaled = RED_SPHERE.replace("[camera]", "[sigma]\nemission_colour = true\n[camera]");
+    let e = scene_in(dir.path(), &unscaled).err().unwrap().to_string();
+    assert!(
+        e.contains("emission_colour") && e.contains("non-zero `emission`"),
+        "{e}"
+    );
+}
+
+/// A RAW file that stores HU + 1024 (as CThead does) with `intercept = -1024` reads the
+/// preset exactly as the same CT in Hounsfield units does; without it, it does not.
+#[test]
+fn an_intercept_puts_stored_values_into_the_presets_units() {
+    let dir = tempfile::tempdir().unwrap();
+    write_ct(dir.path());
+    let hu = scene_in(
+        dir.path(),
+        "[volume]\ndicom = \".\"\nreconstruction = \"nearest\"\n[transfer]\npreset = \"CT-Bone\"\n[three_point]\n",
+    )
+    .unwrap();
+    let stored: Vec<u8> = (0..512u32)
+        .flat_map(|i| (if i % 8 < 4 { 0u16 } else { 1724 }).to_le_bytes())
+        .collect();
+    std::fs::write(dir.path().join("ct.raw"), stored).unwrap();
+    let raw = |intercept: &str| {
+        scene_in(
+            dir.path(),
+            &format!(
+                "[volume]\nfile = \"ct.raw\"\ndims = [8, 8, 8]\nvoxel = \"u16\"\nspacing = [0.5, 0.75, 1.0]\nnormalize = \"window\"\nwindow = [0, 4095]\nreconstruction = \"nearest\"\n[transfer]\npreset = \"CT-Bone\"\n{intercept}\n[three_point]\n"
+            ),
+        )
+        .unwrap()
+    };
+    let (shifted, unshifted) = (raw("intercept = -1024"), raw(""));
+    let at = |s: &Scene| {
+        let b = s.medium().bounds();
+        let p = b.min + (b.max - b.min) * Vec3::new(0.8, 0.5, 0.5);
+        (s.medium().sigma_t(p), s.medium().albedo_at(p))
+    };
+    let (sigma_hu, albedo_hu) = at(&hu);
+    let (sigma, albedo) = at(&shifted);
+    assert!(sigma_hu > 0.0);
+    assert!(
+        (sigma - sigma_hu).abs() < 1e-4 * sigma_hu,
+        "{sigma} vs {sigma_hu}"
+    );
+    assert!(
+        (albedo - albedo_hu).length() < 1e-5,
+        "{albedo} vs {albedo_hu}"
+    );
+    let (sigma_wrong, _) = at(&unshifted);
+    assert!(
+        (sigma_wrong - sigma_hu).abs() > 1e-2 * sigma_hu,
+        "1724 read as HU is another tissue"
+    );
 }

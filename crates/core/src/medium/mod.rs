@@ -48,6 +48,8 @@ pub struct MediumSettings {
     pub mapping: SigmaMapping,
     /// Emission base value `Le` (radiance per unit length per unit density, pbrt-v1 `Lve`).
     pub emission: Vec3,
+    /// Tint the emission by the colour transfer function's colour (needs one).
+    pub emission_colour: bool,
     /// Phase function.
     pub phase: Phase,
     /// Reconstruction between voxels.
@@ -65,6 +67,7 @@ impl Default for MediumSettings {
                 split: sigma::Split::Albedo(sigma::THESIS_ALBEDO),
             },
             emission: Vec3::ZERO,
+            emission_colour: false,
             phase: Phase::ISOTROPIC,
             reconstruction: Reconstruction::Trilinear,
             brick_size: DEFAULT_BRICK_SIZE,
@@ -117,6 +120,7 @@ pub struct Medium {
     mean_albedo: f32,
     colour: Option<Box<[Grid; 3]>>,
     emission: Vec3,
+    emission_colour: bool,
     phase: Phase,
     majorants: MajorantGrid,
     report: SigmaReport,
@@ -156,6 +160,16 @@ impl Medium {
             MajorantGrid::build(&density, coefficients.sigma_t_base, settings.brick_size);
         let albedo = coefficients.albedo;
         let colour = colour_grids(volume, &settings.transfer);
+        if settings.emission_colour && colour.is_none() {
+            return Err(Error::parameter(
+                "sigma.emission_colour",
+                true,
+                format!(
+                    "a colour transfer function to take the colour from (a preset, a .vp file, or opacity + colour points), not {}",
+                    settings.transfer.describe()
+                ),
+            ));
+        }
         Ok(Medium {
             colour,
             density,
@@ -164,6 +178,7 @@ impl Medium {
             albedo,
             mean_albedo: (albedo.x + albedo.y + albedo.z) / 3.0,
             emission: settings.emission,
+            emission_colour: settings.emission_colour,
             phase: settings.phase,
             majorants,
             report,
@@ -250,10 +265,17 @@ impl Medium {
         self.albedo * self.sigma_t(p)
     }
 
-    /// Emission source per unit length at `p`: `Le_base · d(p)`.
+    /// Emission source per unit length at `p`: `Le_base · d(p)`, times the colour transfer
+    /// function's colour at `p` with `emission_colour`.
     #[inline]
     pub fn emission(&self, p: Vec3) -> Vec3 {
-        self.emission * self.density(p)
+        let base = self.emission * self.density(p);
+        match (&self.colour, self.emission_colour) {
+            (Some(rgb), true) => {
+                base * Vec3::from(rgb.each_ref().map(|g| g.sample(p, self.reconstruction)))
+            }
+            _ => base,
+        }
     }
 
     /// Whether the medium emits at all.

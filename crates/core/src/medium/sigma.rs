@@ -64,6 +64,10 @@ pub struct SigmaParams {
     /// Emission base value `Le` (RGB radiance per unit length per unit density).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub emission: Option<[f32; 3]>,
+    /// Tint the emission by the colour transfer function's colour at each point
+    /// (`Le · colour(x) · d(x)`, the emission–absorption model of Slicer/VTK's ray caster).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub emission_colour: bool,
 }
 
 /// The σ-mapping strategy a scene's `[sigma]` table names.
@@ -115,6 +119,7 @@ impl Default for SigmaParams {
             ratio: None,
             scale: None,
             emission: None,
+            emission_colour: false,
         }
     }
 }
@@ -231,6 +236,13 @@ impl SigmaMapping {
     pub fn create(params: &SigmaParams) -> Result<Self> {
         if let Some(e) = params.emission {
             check_rgb_non_negative("emission", e)?;
+        }
+        if params.emission_colour && params.emission.is_none_or(|e| e == [0.0; 3]) {
+            return Err(Error::parameter(
+                "emission_colour",
+                true,
+                "a non-zero `emission` (the Le scale the colour tints) beside it",
+            ));
         }
         if params.mapping != MappingKind::Opacity {
             forbid(params, "scale", params.scale.is_some())?;

@@ -88,6 +88,11 @@ pub struct TransferParams {
     /// `colour`: the opacity unit distance in mm (default: the file's, else 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unit_distance: Option<f64>,
+    /// `colour`: added to the stored values to give the data units the function is written
+    /// in (a RAW file that stores HU + 1024, like CThead, takes −1024; DICOM and NIfTI are
+    /// already rescaled).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub intercept: Option<f64>,
 }
 
 /// The kind of transfer function a scene's `[transfer]` table asks for.
@@ -134,6 +139,7 @@ impl Default for TransferParams {
             opacity: None,
             colour: None,
             unit_distance: None,
+            intercept: None,
         }
     }
 }
@@ -161,6 +167,7 @@ impl TransferFunction {
             || params.opacity.is_some()
             || params.colour.is_some()
             || params.unit_distance.is_some()
+            || params.intercept.is_some()
             || slicer_file;
         if params.kind == TransferKind::Colour
             || (params.kind == TransferKind::Identity && colour_keys)
@@ -171,7 +178,7 @@ impl TransferFunction {
             return Err(Error::parameter(
                 "kind",
                 params.kind.name(),
-                "kind = \"colour\" with `preset`, `opacity`, `colour` or `unit_distance`",
+                "kind = \"colour\" with `preset`, `opacity`, `colour`, `unit_distance` or `intercept`",
             ));
         }
         match params.kind {
@@ -279,9 +286,17 @@ impl TransferFunction {
             tf.unit_distance = u;
         }
         let tf = tf.validated("transfer")?;
+        let intercept = params.intercept.unwrap_or(0.0);
+        if !intercept.is_finite() {
+            return Err(Error::parameter(
+                "intercept",
+                intercept,
+                "a finite offset in data units",
+            ));
+        }
         Ok(TransferFunction::Colour {
             tf: Box::new(tf),
-            raw_lo: normalization.raw_lo,
+            raw_lo: normalization.raw_lo + intercept,
             raw_span: normalization.raw_hi - normalization.raw_lo,
             mm_per_world: 1.0,
         })

@@ -445,10 +445,15 @@ fn mm_per_world(volume: &Volume) -> f64 {
 /// `[sigma]` is left at its defaults); other transfer functions may not use it.
 fn colour_mapping(params: &SceneParams, transfer: &TransferFunction) -> Result<SigmaMapping> {
     let colour = matches!(transfer, TransferFunction::Colour { .. });
-    let sigma = if colour && params.sigma == SigmaParams::default() {
+    // A colour transfer function implies `mapping = "opacity"` unless the table names
+    // another mapping's own keys (`albedo`, `scale`, `emission` belong to every mapping).
+    let s = &params.sigma;
+    let thesis_keys = s.t.is_some() || s.percent.is_some() || s.ratio.is_some();
+    let explicit_keys = s.sigma_a.is_some() || s.sigma_s.is_some();
+    let sigma = if colour && s.mapping == MappingKind::Thesis && !thesis_keys && !explicit_keys {
         SigmaParams {
             mapping: MappingKind::Opacity,
-            ..SigmaParams::default()
+            ..s.clone()
         }
     } else {
         params.sigma.clone()
@@ -481,6 +486,7 @@ pub fn build_medium(params: &SceneParams, volume: &Volume, base: &Path) -> Resul
             transfer,
             mapping,
             emission: Vec3::from(params.sigma.emission.unwrap_or([0.0; 3])),
+            emission_colour: params.sigma.emission_colour,
             phase,
             reconstruction: params.volume.reconstruction,
             brick_size: params.volume.brick_size,
