@@ -1,13 +1,17 @@
 //! The DICOM series reader on series written here with the dicom-rs crates: sorting by
 //! position (not file name), series choice, HU rescale, signed/unsigned storage,
 //! MONOCHROME1, enhanced multi-frame objects, patient-axis orientation, and every bad input
-//! the issue lists (each an error naming the file and the problem). With the real data
-//! present, the cranium CT is written as a series and read back voxel for voxel.
+//! the issue lists (each an error naming the file and the problem), RLE Lossless slices.
+//! With the real data present, the cranium CT is written as a series (every third slice
+//! RLE-compressed) and read back voxel for voxel.
 
 use std::path::{Path, PathBuf};
 
 use volphot::test_util::dicom::{SliceSpec, write_slice};
 use volphot::{DicomInput, LoadedVoxels, Orientation, read_dicom_series};
+
+/// RLE Lossless transfer syntax UID.
+const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
 
 const ROWS: u16 = 3;
 const COLS: u16 = 4;
@@ -298,6 +302,39 @@ impl TapMkdir for PathBuf {
     }
 }
 
+/// RLE Lossless, decoded by dicom-rs's native codec: a series whose every other slice is
+/// RLE-compressed (written here, PS3.5 Annex G, replicate and literal runs) reads exactly as
+/// the uncompressed series.
+#[test]
+fn rle_lossless_slices_read_as_their_uncompressed_twins() {
+    // 16×16 unsigned slices: a flat band (replicate runs in both byte planes) beside values
+    // whose high and low bytes both vary (literal runs).
+    let word = |x: usize, y: usize, p: usize| -> u16 {
+        if x < 6 {
+            1000 + 7 * p as u16
+        } else {
+            ((x * y * 397 + p * 1111) % 60000) as u16
+        }
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for p in 0..4 {
+        let mut spec = SliceSpec::ct("2.25.22", &format!("2.25.22.{p}"), p as f64, [16, 16]);
+        spec.signed = false;
+        spec.rescale = [1.0, 0.0];
+        if p % 2 == 0 {
+            spec.transfer_syntax = RLE_LOSSLESS.into();
+        }
+        let words: Vec<u16> = (0..256).map(|i| word(i % 16, i / 16, p)).collect();
+        write_slice(&dir.path().join(format!("s{p}")), &spec, &words).unwrap();
+    }
+    let v = read(dir.path(), None).unwrap();
+    assert_eq!(v.dims, [16, 16, 4]);
+    for (i, got) in v.values.iter().enumerate() {
+        let (x, y, p) = (i % 16, (i / 16) % 16, i / 256);
+        assert_eq!(*got, f32::from(word(x, y, p)), "voxel ({x}, {y}, {p})");
+    }
+}
+
 #[test]
 fn an_unsupported_transfer_syntax_is_named() {
     let dir = tempfile::tempdir().unwrap();
@@ -395,6 +432,9 @@ fn cranium_ct_written_as_dicom_reads_back_voxel_for_voxel() {
         spec.pixel_spacing = [0.957, 0.957];
         spec.signed = false;
         spec.rescale = [1.0, -1024.0];
+        if z % 3 == 0 {
+            spec.transfer_syntax = RLE_LOSSLESS.into();
+        }
         let slice = &hu[z * n * n..(z + 1) * n * n];
         let w: Vec<u16> = slice
             .iter()

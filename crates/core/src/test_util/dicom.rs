@@ -179,6 +179,13 @@ pub fn write_slice(path: &Path, spec: &SliceSpec, words: &[u16]) -> Result<(), S
             VR::OW,
             PrimitiveValue::U16(words.iter().copied().collect()),
         ));
+    } else if spec.transfer_syntax == uids::RLE_LOSSLESS {
+        let (rows, cols) = (spec.size[0] as usize, spec.size[1] as usize);
+        obj.put(DataElement::new(
+            tags::PIXEL_DATA,
+            VR::OB,
+            PixelFragmentSequence::new(vec![], rle_frames(words, rows, cols)),
+        ));
     } else {
         let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
         obj.put(DataElement::new(
@@ -257,4 +264,67 @@ fn put_functional_groups(obj: &mut InMemDicomObject, spec: &SliceSpec) {
         VR::IS,
         PrimitiveValue::from(spec.positions.len().to_string()),
     ));
+}
+
+/// RLE Lossless (PS3.5 Annex G) fragments, one per frame of `rows × cols` 16-bit words: a
+/// 64-byte header with two segment offsets, then the high bytes and the low bytes of the
+/// frame, each PackBits-encoded row by row and padded to even length.
+fn rle_frames(words: &[u16], rows: usize, cols: usize) -> Vec<Vec<u8>> {
+    words
+        .chunks(rows * cols)
+        .map(|frame| {
+            let segments: Vec<Vec<u8>> = [1usize, 0]
+                .iter()
+                .map(|&byte| {
+                    let plane: Vec<u8> = frame.iter().map(|w| w.to_le_bytes()[byte]).collect();
+                    let mut segment: Vec<u8> = plane.chunks(cols).flat_map(packbits).collect();
+                    if segment.len() % 2 == 1 {
+                        segment.push(0);
+                    }
+                    segment
+                })
+                .collect();
+            let mut header = [0u32; 16];
+            header[0] = 2;
+            header[1] = 64;
+            header[2] = 64 + segments[0].len() as u32;
+            let mut out: Vec<u8> = header.iter().flat_map(|h| h.to_le_bytes()).collect();
+            segments.iter().for_each(|s| out.extend(s));
+            out
+        })
+        .collect()
+}
+
+/// PackBits: runs of 3 or more equal bytes as replicate runs (`257 − n`, byte), the rest
+/// as literal runs (`n − 1`, bytes), at most 128 bytes per run.
+fn packbits(row: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < row.len() {
+        let run = row[i..]
+            .iter()
+            .take(128)
+            .take_while(|&&b| b == row[i])
+            .count();
+        if run >= 3 {
+            out.extend([(257 - run) as u8, row[i]]);
+            i += run;
+            continue;
+        }
+        let start = i;
+        while i < row.len() && i - start < 128 {
+            let ahead = row[i..]
+                .iter()
+                .take(3)
+                .take_while(|&&b| b == row[i])
+                .count();
+            if ahead >= 3 {
+                break;
+            }
+            i += 1;
+        }
+        out.push((i - start - 1) as u8);
+        out.extend(&row[start..i]);
+    }
+    out
 }
