@@ -49,7 +49,7 @@ fn write_series(dir: &Path, uid: &str, n: usize, dz: f64, edit: impl Fn(usize, &
 }
 
 fn read(dir: &Path, series: Option<&str>) -> volphot::Result<LoadedVoxels> {
-    read_dicom_series(&DicomInput::Folder(dir.to_path_buf()), series).map(|(v, _)| v)
+    read_dicom_series(&DicomInput::Folder(dir.to_path_buf()), series, false).map(|(v, _)| v)
 }
 
 fn error(dir: &Path, series: Option<&str>) -> String {
@@ -239,6 +239,55 @@ fn a_missing_slice_is_an_error_naming_the_gap() {
         "{e}"
     );
     assert!(e.contains("IM"), "{e}");
+    assert!(
+        e.contains("resample = true"),
+        "the error says how to go on: {e}"
+    );
+
+    // Asked to, the reader interpolates the missing slice from its neighbours (the values
+    // are linear in the position index, so the interpolation is exact) and says so.
+    let (v, _) =
+        read_dicom_series(&DicomInput::Folder(dir.path().to_path_buf()), None, true).unwrap();
+    assert_values(&v, 6, |s| s as f32);
+    assert_eq!(v.spacing.map(|s| s[2]), Some(1.5));
+    assert_eq!(v.voxel_type, volphot::VoxelType::F32);
+    let a = v.acquisition.unwrap();
+    assert!(
+        a.choice.contains("RESAMPLED")
+            && a.choice.contains("5 irregularly spaced slices")
+            && a.choice.contains("onto 6 slices"),
+        "{}",
+        a.choice
+    );
+}
+
+#[test]
+fn resampling_interpolates_uneven_gaps_linearly() {
+    let dir = tempfile::tempdir().unwrap();
+    // Positions 0, 1, 3, 4 (mm): the median step is 1, so slices land at 0, 1, 2, 3, 4 and
+    // the one at 2 is halfway between the slices at 1 and 3.
+    let z = [0.0, 1.0, 3.0, 4.0];
+    for (p, zp) in z.iter().enumerate() {
+        let spec = SliceSpec::ct("2.25.17", &format!("2.25.17.{p}"), *zp, [ROWS, COLS]);
+        write_slice(
+            &dir.path().join(format!("s{p}")),
+            &spec,
+            &words(p, |v| v as i16 as u16),
+        )
+        .unwrap();
+    }
+    let (v, _) =
+        read_dicom_series(&DicomInput::Folder(dir.path().to_path_buf()), None, true).unwrap();
+    assert_eq!(v.dims, [COLS as usize, ROWS as usize, 5]);
+    let plane = (ROWS * COLS) as usize;
+    for (k, source) in [(0, 0.0), (1, 1.0), (2, 1.5), (3, 2.0), (4, 3.0)] {
+        let got = v.values[k * plane];
+        let expected = value(0, 0, 0) as f32 + 100.0 * source;
+        assert!(
+            (got - expected).abs() < 1e-3,
+            "slice {k}: {got} vs {expected}"
+        );
+    }
 }
 
 #[test]
@@ -370,10 +419,14 @@ fn folders_without_dicom_images_are_errors() {
         e.contains("no DICOM images") && e.contains("1 not DICOM"),
         "{e}"
     );
-    let e = read_dicom_series(&DicomInput::Files(vec![dir.path().join("notes.txt")]), None)
-        .err()
-        .unwrap()
-        .to_string();
+    let e = read_dicom_series(
+        &DicomInput::Files(vec![dir.path().join("notes.txt")]),
+        None,
+        false,
+    )
+    .err()
+    .unwrap()
+    .to_string();
     assert!(
         e.contains("notes.txt") && e.contains("not a readable DICOM file"),
         "{e}"
@@ -506,7 +559,7 @@ fn load_cost_of_a_512_slice_series_against_raw() {
     let a = volphot::read_volume(&request).unwrap();
     let raw_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let b = volphot::read_dicom_volume(&DicomInput::Folder(series), None, &request).unwrap();
+    let b = volphot::read_dicom_volume(&DicomInput::Folder(series), None, false, &request).unwrap();
     let dicom_s = t.elapsed().as_secs_f64();
     assert_eq!(a.grid().values(), b.grid().values());
     println!(

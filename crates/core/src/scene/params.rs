@@ -41,6 +41,10 @@ pub struct VolumeParams {
     /// (default: the one with the most slices; equal candidates are an error).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub series: Option<String>,
+    /// With `dicom`: interpolate a series with a missing slice or uneven gaps linearly onto
+    /// its usual slice step (default: such a series is an error naming the gap).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub resample: bool,
     /// A procedural phantom.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub phantom: Option<PhantomParams>,
@@ -231,6 +235,13 @@ fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
             "exactly one of `dataset`, `file`, `dicom`, `phantom`",
         ));
     }
+    if v.resample && v.dicom.is_none() {
+        return Err(Error::parameter(
+            "volume.resample",
+            "true",
+            "only with `dicom` (other formats carry their own regular spacing)",
+        ));
+    }
     if v.series.is_some() && v.dicom.is_none() {
         return Err(Error::parameter(
             "volume.series",
@@ -391,6 +402,7 @@ pub fn load_volume(v: &VolumeParams, base: &Path, search: &SearchPath) -> Result
         VolumeChoice::Dicom(input) => read_dicom_volume(
             &input.resolved(base),
             v.series.as_deref(),
+            v.resample,
             &FileRequest {
                 path: base.to_path_buf(),
                 raw_layout: None,

@@ -375,9 +375,10 @@ pub fn read_volume(request: &FileRequest) -> Result<Volume> {
 pub fn read_dicom_volume(
     input: &DicomInput,
     series: Option<&str>,
+    resample: bool,
     request: &FileRequest,
 ) -> Result<Volume> {
-    let (loaded, sha256) = read_dicom_series(input, series)?;
+    let (loaded, sha256) = read_dicom_series(input, series, resample)?;
     from_loaded(loaded, request, None, sha256)
 }
 

@@ -294,6 +294,24 @@ mod tests {
     use super::*;
 
     #[test]
+    fn amplified_differences_keep_their_colour() {
+        // A red-only difference (a colour medium's multiple layer) stays red; the signed map
+        // is by luminance (documented), so it only has to be non-white.
+        let (w, h) = (40, 40);
+        let a = vec![Vec3::new(0.4, 0.0, 0.0); w * h];
+        let b = vec![Vec3::ZERO; w * h];
+        let img = amplified_difference(&a, &b, w, h, 1.0, 0.0);
+        let px = &img.data[..3];
+        assert!(px[0] > 100 && px[1] == 0 && px[2] == 0, "{px:?}");
+        let signed = signed_difference(&a, &b, w, h, 0.5);
+        assert!(
+            signed.data[..3] != [255, 255, 255],
+            "{:?}",
+            &signed.data[..3]
+        );
+    }
+
+    #[test]
     fn text_changes_pixels_and_paste_places_images() {
         let mut img = Rgb8::filled(120, 40, [0, 0, 0]);
         img.text("nused = 150", 2.0, 2.0, 16.0, [255, 255, 255]);

@@ -84,9 +84,19 @@ pub fn choose(where_: &Path, slices: Vec<SliceHeader>, wanted: Option<&str>) -> 
     })
 }
 
-/// Checks that the slices form one regular stack, sorts them along the slice normal and
-/// returns the voxel axes in the patient frame.
-pub fn stack(slices: &mut [SliceHeader]) -> Result<PatientAxes> {
+/// A stack's slice positions along its normal.
+pub enum Positions {
+    /// Evenly spaced.
+    Regular,
+    /// Irregular (a missing slice or uneven gaps), allowed by `resample`: the positions in
+    /// mm, to be interpolated onto the usual step.
+    Irregular(Vec<f64>),
+}
+
+/// Checks that the slices form one stack, sorts them along the slice normal and returns
+/// the voxel axes in the patient frame (with the usual step as z spacing). Irregular
+/// spacing is an error naming the gap unless `resample`.
+pub fn stack(slices: &mut [SliceHeader], resample: bool) -> Result<(PatientAxes, Positions)> {
     let first = slices[0].clone();
     for s in slices.iter() {
         same_frame(&first, s)?;
@@ -107,11 +117,28 @@ pub fn stack(slices: &mut [SliceHeader]) -> Result<PatientAxes> {
     let normal = cross(row, col);
     slices.sort_by(|a, b| dot(a.position, normal).total_cmp(&dot(b.position, normal)));
     check_in_plane(slices, normal)?;
-    let step = slice_step(slices, normal)?;
-    Ok(PatientAxes {
-        directions: [row, col, normal],
-        spacing: [first.pixel_spacing[1], first.pixel_spacing[0], step],
-    })
+    let (step, positions) = match slice_step(slices, normal) {
+        Ok(step) => (step, Positions::Regular),
+        Err(Irregular { usual, .. }) if resample => (
+            usual,
+            Positions::Irregular(slices.iter().map(|s| dot(s.position, normal)).collect()),
+        ),
+        Err(Irregular { error, .. }) => return Err(error),
+    };
+    Ok((
+        PatientAxes {
+            directions: [row, col, normal],
+            spacing: [first.pixel_spacing[1], first.pixel_spacing[0], step],
+        },
+        positions,
+    ))
+}
+
+/// Why a stack's spacing is not one step: the error to report, and the usual (median) step
+/// to resample onto (0 when no step exists, e.g. two slices at one position).
+struct Irregular {
+    error: Error,
+    usual: f64,
 }
 
 fn same_frame(first: &SliceHeader, s: &SliceHeader) -> Result<()> {
@@ -212,7 +239,7 @@ fn describe(s: &SliceHeader) -> String {
 }
 
 /// The slice step from the positions, checked uniform.
-fn slice_step(slices: &[SliceHeader], normal: [f64; 3]) -> Result<f64> {
+fn slice_step(slices: &[SliceHeader], normal: [f64; 3]) -> std::result::Result<f64, Irregular> {
     let d: Vec<f64> = slices.iter().map(|s| dot(s.position, normal)).collect();
     if slices.len() == 1 {
         return Ok(slices[0].thickness.filter(|t| *t > 0.0).unwrap_or(1.0));
@@ -220,14 +247,17 @@ fn slice_step(slices: &[SliceHeader], normal: [f64; 3]) -> Result<f64> {
     let mut steps: Vec<f64> = d.windows(2).map(|w| w[1] - w[0]).collect();
     for (k, step) in steps.iter().enumerate() {
         if *step < 1e-4 {
-            return Err(Error::format(
-                &slices[k + 1].path,
-                format!(
-                    "two slices at the same position {:.4} mm along the normal: this one and {}",
-                    d[k + 1],
-                    describe(&slices[k])
+            return Err(Irregular {
+                usual: 0.0,
+                error: Error::format(
+                    &slices[k + 1].path,
+                    format!(
+                        "two slices at the same position {:.4} mm along the normal: this one and {}",
+                        d[k + 1],
+                        describe(&slices[k])
+                    ),
                 ),
-            ));
+            });
         }
     }
     let all = steps.clone();
@@ -235,18 +265,50 @@ fn slice_step(slices: &[SliceHeader], normal: [f64; 3]) -> Result<f64> {
     let usual = steps[steps.len() / 2];
     for (k, step) in all.iter().enumerate() {
         if (step - usual).abs() > SPACING_TOLERANCE * usual {
-            return Err(Error::format(
-                &slices[k + 1].path,
-                format!(
-                    "gap of {step:.4} mm between {} (at {:.4} mm along the slice normal) and this slice (at {:.4} mm), \
+            return Err(Irregular {
+                usual,
+                error: Error::format(
+                    &slices[k + 1].path,
+                    format!(
+                        "gap of {step:.4} mm between {} (at {:.4} mm along the slice normal) and this slice (at {:.4} mm), \
                      where the other slices are {usual:.4} mm apart: a missing slice or irregular spacing \
-                     (volphot does not resample; add the missing file or pass only a regular run of slices)",
-                    describe(&slices[k]),
-                    d[k],
-                    d[k + 1]
+                     (add the missing file, pass only a regular run of slices, or set `resample = true` in \
+                     [volume] to interpolate onto {usual:.4} mm)",
+                        describe(&slices[k]),
+                        d[k],
+                        d[k + 1]
+                    ),
                 ),
-            ));
+            });
         }
     }
     Ok((d[d.len() - 1] - d[0]) / (d.len() - 1) as f64)
+}
+
+/// Linear interpolation of `values` (`nz` slices of `plane` voxels at `positions`, sorted)
+/// onto slices `step` apart from the first position; returns the values and the new count.
+pub fn resample_slices(
+    values: &[f32],
+    plane: usize,
+    positions: &[f64],
+    step: f64,
+) -> (Vec<f32>, usize) {
+    let (first, last) = (positions[0], positions[positions.len() - 1]);
+    let count = ((last - first) / step).round() as usize + 1;
+    let mut out = Vec::with_capacity(count * plane);
+    let mut below = 0;
+    for k in 0..count {
+        let z = (first + k as f64 * step).min(last);
+        while below + 2 < positions.len() && positions[below + 1] < z {
+            below += 1;
+        }
+        let (z0, z1) = (positions[below], positions[below + 1]);
+        let t = ((z - z0) / (z1 - z0)).clamp(0.0, 1.0) as f32;
+        let (a, b) = (
+            &values[below * plane..][..plane],
+            &values[(below + 1) * plane..][..plane],
+        );
+        out.extend(a.iter().zip(b).map(|(a, b)| a + (b - a) * t));
+    }
+    (out, count)
 }

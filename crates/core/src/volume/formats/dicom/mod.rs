@@ -49,12 +49,21 @@ impl DicomInput {
 /// Reads one series; `series` picks it by SeriesInstanceUID (default: the largest).
 /// Returns the voxels (grid x, y, z = L, P, S for axis-aligned series), the sha256 of the
 /// series' files and what was read.
-pub fn read_series(input: &DicomInput, series: Option<&str>) -> Result<(LoadedVoxels, String)> {
+///
+/// With `resample`, a series with a missing slice or uneven gaps is linearly interpolated
+/// along the slice normal onto its usual (median) step, and the record says so; without it
+/// such a series is an error naming the gap.
+pub fn read_series(
+    input: &DicomInput,
+    series: Option<&str>,
+    resample: bool,
+) -> Result<(LoadedVoxels, String)> {
     let anchor = input.anchor();
     let slices = scan_all(input)?;
     let chosen = assemble::choose(&anchor, slices, series)?;
+    let mut choice = chosen.choice;
     let mut slices = chosen.slices;
-    let axes = assemble::stack(&mut slices)?;
+    let (axes, positions) = assemble::stack(&mut slices, resample)?;
     for s in &slices {
         header::check_transfer_syntax(&s.path, &s.transfer_syntax)?;
     }
@@ -63,6 +72,17 @@ pub fn read_series(input: &DicomInput, series: Option<&str>) -> Result<(LoadedVo
     let count = check_dims(&anchor, dims)?;
     let mut values = vec![0.0f32; count];
     let sha256 = decode::decode_into(&slices, &mut values)?;
+    let mut dims = dims;
+    if let assemble::Positions::Irregular(z) = &positions {
+        let plane = dims[0] * dims[1];
+        let (resampled, count) = assemble::resample_slices(&values, plane, z, axes.spacing[2]);
+        check_dims(&anchor, [dims[0], dims[1], count])?;
+        choice += &format!(
+            "; RESAMPLED: {} irregularly spaced slices interpolated linearly onto {count} slices {:.4} mm apart",
+            dims[2], axes.spacing[2]
+        );
+        (values, dims[2]) = (resampled, count);
+    }
     let (map, orientation) = axes.grid_map();
     let (values, dims) = reorient(values, dims, &map);
     let spacing = axes.grid_spacing(&map);
@@ -84,9 +104,12 @@ pub fn read_series(input: &DicomInput, series: Option<&str>) -> Result<(LoadedVo
         spacing_mm: spacing,
         rescale,
         orientation,
-        choice: chosen.choice,
+        choice,
     };
-    let voxel_type = voxel_type(&first.format, &acquisition.rescale);
+    let voxel_type = match positions {
+        assemble::Positions::Regular => voxel_type(&first.format, &acquisition.rescale),
+        assemble::Positions::Irregular(_) => VoxelType::F32,
+    };
     Ok((
         LoadedVoxels {
             dims,
