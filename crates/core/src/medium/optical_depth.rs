@@ -108,19 +108,38 @@ impl Medium {
     /// [`Medium::clip`] returns it), stopping once τ exceeds `tau_max`.
     pub fn optical_depth_exact(&self, ray: &Ray, t0: f32, t1: f32, tau_max: f32) -> f32 {
         let mut tau = 0.0f32;
+        // Runs of adjacent non-empty bricks are integrated in one cell walk: the walk and
+        // its entry value are set up once per run instead of once per brick.
+        let mut run: Option<(f32, f32)> = None;
+        let mut integrate = |(a, b): (f32, f32)| {
+            tau += match self.reconstruction {
+                Reconstruction::Trilinear => self.density_integral_trilinear(ray, a, b),
+                Reconstruction::Nearest => self.density_integral_nearest(ray, a, b),
+            } * self.sigma_t_base;
+            tau > tau_max
+        };
         for seg in self.segments(ray, t0, t1) {
             if seg.sigma_maj == 0.0 {
+                if let Some(r) = run.take()
+                    && integrate(r)
+                {
+                    return tau;
+                }
                 continue;
             }
-            tau += match self.reconstruction {
-                Reconstruction::Trilinear => {
-                    self.density_integral_trilinear(ray, seg.t_min, seg.t_max)
+            run = match run {
+                Some((a, b)) if seg.t_min <= b => Some((a, seg.t_max.max(b))),
+                Some(r) => {
+                    if integrate(r) {
+                        return tau;
+                    }
+                    Some((seg.t_min, seg.t_max))
                 }
-                Reconstruction::Nearest => self.density_integral_nearest(ray, seg.t_min, seg.t_max),
-            } * self.sigma_t_base;
-            if tau > tau_max {
-                break;
-            }
+                None => Some((seg.t_min, seg.t_max)),
+            };
+        }
+        if let Some(r) = run {
+            integrate(r);
         }
         tau
     }
