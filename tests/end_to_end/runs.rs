@@ -428,3 +428,61 @@ fn real_dataset_grid_records_checksums() {
             .all(|v| *v == "engine")
     );
 }
+
+/// A progressive cell in an experiment with a reference records its error after every
+/// iteration and stops at `integrator.target_rmse`: a target every iteration meets stops
+/// after the first; without one all iterations run.
+#[test]
+fn progressive_cells_stop_at_their_target_error_against_the_reference() {
+    let tmp = tempfile::tempdir().unwrap();
+    let exp = write_experiment(
+        tmp.path(),
+        "target",
+        "phantom-head.toml",
+        r#"
+[set]
+"volume.phantom.resolution" = [24, 24, 24]
+"camera.resolution" = [16, 16]
+"integrator.volume_photons" = 2000
+"integrator.stepsize" = 0.01
+"integrator.estimator" = "progressive"
+"integrator.iterations" = 4
+[axes]
+"integrator.target_rmse" = [0, 1000]
+[reference]
+method = "path"
+spp = 16
+"#,
+    );
+    let out = tmp.path().join("out");
+    run_ok(sweep().arg("run").arg(&exp).arg("--output").arg(&out));
+    let mut seen = 0;
+    for entry in std::fs::read_dir(out.join("cells")).unwrap().flatten() {
+        let Ok(text) = std::fs::read_to_string(entry.path().join("cell.json")) else {
+            continue;
+        };
+        let record: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let target = record["scene"]["integrator"]["target_rmse"]
+            .as_f64()
+            .unwrap();
+        let p = &record["progressive"];
+        let errors = p["errors"].as_array().unwrap();
+        if target > 0.0 {
+            assert_eq!(
+                (p["iterations"].as_u64(), p["stopped"].as_str()),
+                (Some(1), Some("target-rmse")),
+                "{p}"
+            );
+            assert_eq!(errors.len(), 1, "{p}");
+        } else {
+            assert_eq!(
+                (p["iterations"].as_u64(), p["stopped"].as_str()),
+                (Some(4), Some("iterations")),
+                "{p}"
+            );
+            assert_eq!(errors.len(), 4, "{p}");
+        }
+        seen += 1;
+    }
+    assert_eq!(seen, 2);
+}

@@ -5,6 +5,8 @@
 
 use std::time::{Duration, Instant};
 
+use glam::Vec3;
+
 use crate::error::{Error, Result};
 
 fn no_progress(_: u64) {}
@@ -14,6 +16,7 @@ fn no_progress(_: u64) {}
 pub struct Control<'a> {
     progress: &'a (dyn Fn(u64) + Sync),
     deadline: Option<(Instant, Duration)>,
+    reference: Option<&'a [Vec3]>,
 }
 
 impl std::fmt::Debug for Control<'_> {
@@ -36,6 +39,7 @@ impl<'a> Control<'a> {
         Control {
             progress: &no_progress,
             deadline: None,
+            reference: None,
         }
     }
 
@@ -44,7 +48,21 @@ impl<'a> Control<'a> {
         Control {
             progress,
             deadline: None,
+            reference: None,
         }
+    }
+
+    /// The converged image this render is measured against (its displayed layers, the
+    /// camera's size): a progressive render records its error per iteration and stops at
+    /// `integrator.target_rmse`.
+    pub fn with_reference(mut self, reference: &'a [Vec3]) -> Self {
+        self.reference = Some(reference);
+        self
+    }
+
+    /// The reference image, if one was given.
+    pub fn reference(&self) -> Option<&'a [Vec3]> {
+        self.reference
     }
 
     /// Stops the render with [`Error::TimeLimit`] once `limit` has passed from now.
@@ -56,10 +74,14 @@ impl<'a> Control<'a> {
     /// Reports that `rows` rows (or units) are finished.
     /// The same time limit with another progress callback (a pass inside a longer render
     /// reports its rows offset by the work before it).
-    pub(crate) fn with_progress<'b>(&self, progress: &'b (dyn Fn(u64) + Sync)) -> Control<'b> {
+    pub(crate) fn with_progress<'b>(&self, progress: &'b (dyn Fn(u64) + Sync)) -> Control<'b>
+    where
+        'a: 'b,
+    {
         Control {
             progress,
             deadline: self.deadline,
+            reference: self.reference,
         }
     }
 

@@ -70,11 +70,13 @@ pub mod test_util;
 
 pub use control::Control;
 pub use error::{Error, Result, check_non_negative, check_positive, check_range};
-pub use film::{Film, Layer, mean_rgb, read_pfm, to_srgb8, write_pfm, write_png, write_png_rgb8};
+pub use film::{
+    Film, Layer, mean_rgb, read_pfm, rmse, to_srgb8, write_pfm, write_png, write_png_rgb8,
+};
 pub use integrator::{
     CACHE_TAU_MAX, CacheError, ErrorBound, MAX_VERTICES, MarchOutput, MarchStats, MsVariant,
-    ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, next_radius, progress_rows,
-    render_march, render_march_beams, render_progressive, render_reference,
+    ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, StopReason, next_radius,
+    progress_rows, render_march, render_march_beams, render_progressive, render_reference,
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
 pub use medium::{

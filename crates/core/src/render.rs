@@ -219,6 +219,7 @@ fn render_each(
             map_shared_by: usize::from(out.record.photons.is_some()),
             photons: out.record.photons,
             cache_error: out.record.cache_error,
+            progressive: out.record.progressive,
         });
     }
     Ok(SharedRender {
@@ -297,6 +298,8 @@ pub struct SharedFilm {
     pub map_shared_by: usize,
     /// What the caches were measured to err by, when the render used one.
     pub cache_error: Option<CacheError>,
+    /// What the iterations did, for the progressive and beam estimators.
+    pub progressive: Option<ProgressiveStats>,
 }
 
 /// What [`render_shared`] produced.
@@ -329,6 +332,7 @@ pub fn render_shared(
             tree_seconds: 0.0,
             map_shared_by: 0,
             cache_error: None,
+            progressive: None,
         };
         return Ok(SharedRender {
             films: vec![film; variants.len()],
@@ -384,6 +388,7 @@ pub fn render_shared(
                         .filter(|v| v.map == ms_variants[*i].map)
                         .count(),
                     cache_error: out.cache_errors[*i].clone(),
+                    progressive: None,
                 }
             }
             None => {
@@ -399,6 +404,7 @@ pub fn render_shared(
                     tree_seconds: 0.0,
                     map_shared_by: 0,
                     cache_error: out.cache_errors[0].clone(),
+                    progressive: None,
                 }
             }
         })

@@ -209,3 +209,65 @@ fn every_iteration_carries_the_same_power() {
         assert_eq!(w[1], expected);
     }
 }
+
+/// With a reference, a progressive render records its RMSE after every iteration (falling,
+/// as it converges) and `target_rmse` stops it at the first iteration that reaches it; a
+/// target without a reference, or with the point estimate, is an error naming the key.
+#[test]
+fn a_target_error_stops_the_iterations_and_every_error_is_recorded() {
+    let scene = with(&sphere(), |s| {
+        s.estimator = MsEstimator::Progressive;
+        s.iterations = 8;
+        s.photons_per_iteration = 4_000;
+    });
+    let (reference, _) = reference(&scene, 1024);
+    let control = Control::none().with_reference(&reference);
+    let all = render(&scene, &control)
+        .unwrap()
+        .record
+        .progressive
+        .unwrap();
+    assert_eq!(all.errors.len(), 8);
+    assert_eq!(all.stopped, volphot::StopReason::Iterations);
+    assert!(
+        all.errors[7] < 0.8 * all.errors[0],
+        "the error falls: {:?}",
+        all.errors
+    );
+    // The last recorded error is the returned image's.
+    let out = render(&scene, &control).unwrap();
+    let last = volphot::rmse(out.film.layer(Layer::Multiple), &reference);
+    assert!(
+        (last - all.errors[7]).abs() < 1e-9 * last.max(1.0),
+        "{last} vs {:?}",
+        all.errors
+    );
+
+    // A target between the errors stops at the first iteration below it.
+    let target = 0.5 * (all.errors[2] + all.errors[7]);
+    let first_below = all.errors.iter().position(|e| *e <= target).unwrap() + 1;
+    let stopped = with(&scene, |s| s.target_rmse = target as f32);
+    let stats = render(&stopped, &control)
+        .unwrap()
+        .record
+        .progressive
+        .unwrap();
+    assert_eq!(stats.stopped, volphot::StopReason::TargetRmse);
+    assert_eq!(stats.iterations as usize, first_below, "{:?}", all.errors);
+    assert_eq!(
+        stats.errors,
+        all.errors[..first_below].to_vec(),
+        "the same iterations"
+    );
+
+    let e = render(&stopped, &Control::none()).unwrap_err().to_string();
+    assert!(
+        e.contains("integrator.target_rmse") && e.contains("reference"),
+        "{e}"
+    );
+    let mut points = scene.integrator().clone();
+    points.estimator = MsEstimator::Points;
+    points.target_rmse = 0.01;
+    let e = points.validate().unwrap_err().to_string();
+    assert!(e.contains("target_rmse") && e.contains("points"), "{e}");
+}

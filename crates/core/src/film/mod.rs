@@ -182,6 +182,22 @@ impl Film {
     }
 }
 
+/// Root-mean-square difference over all RGB components of two equally sized images (the
+/// sweep's `rmse` metric, and a progressive render's stopping error).
+pub fn rmse(image: &[Vec3], reference: &[Vec3]) -> f64 {
+    if image.is_empty() {
+        return 0.0;
+    }
+    let mut se = 0.0f64;
+    for (a, b) in image.iter().zip(reference) {
+        for c in 0..3 {
+            let d = (a[c] - b[c]) as f64;
+            se += d * d;
+        }
+    }
+    (se / (3.0 * image.len() as f64)).sqrt()
+}
+
 /// Mean of all RGB components.
 pub fn mean_rgb(pixels: &[Vec3]) -> f64 {
     if pixels.is_empty() {

@@ -40,6 +40,6 @@ pub use cache_error::{CacheError, ErrorBound};
 pub use gather::MsVariant;
 pub use march::{MarchOutput, MarchStats, render_march, render_march_beams};
 pub use progressive::{
-    ProgressiveOutput, ProgressiveStats, next_radius, progress_rows, render_progressive,
+    ProgressiveOutput, ProgressiveStats, StopReason, next_radius, progress_rows, render_progressive,
 };
 pub use reference::{MAX_VERTICES, ReferenceAccumulator, render_reference};

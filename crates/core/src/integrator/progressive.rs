@@ -28,7 +28,7 @@ use super::beam::{beam_masked, beam_radius};
 use super::gather::MsVariant;
 use super::march::{MarchStats, render_march, render_march_beams};
 use crate::control::Control;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
 use crate::photon::{BeamMap, PhotonMap, PhotonStats, TraceSettings, trace};
 use crate::scene::{InitialRadius, IntegratorParams, Method, MsEstimator, Scene};
@@ -56,6 +56,26 @@ pub struct ProgressiveStats {
     pub tree_seconds: f64,
     /// Seconds spent marching, all iterations.
     pub march_seconds: f64,
+    /// RMSE of the image after each iteration against the reference the render was given
+    /// (empty without one).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub errors: Vec<f64>,
+    /// Why the iterations stopped.
+    #[serde(default)]
+    pub stopped: StopReason,
+}
+
+/// Why a progressive render stopped iterating.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StopReason {
+    /// All `iterations` ran.
+    #[default]
+    Iterations,
+    /// The `time_budget` ran out.
+    TimeBudget,
+    /// The image came within `target_rmse` of the reference.
+    TargetRmse,
 }
 
 /// The result of [`render_progressive`].
@@ -98,9 +118,14 @@ pub fn progress_rows(settings: &IntegratorParams, rows: u32) -> u64 {
 
 /// Renders `scene` progressively (see the module docs): the `progressive` estimator, or
 /// the `beam` estimate over `iterations` photon maps.
+///
+/// With a reference in `control` ([`Control::with_reference`]) the image's RMSE against it
+/// is recorded after every iteration, and `target_rmse` stops the iterations once it is
+/// reached; a target without a reference is an error.
 pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<ProgressiveOutput> {
     let start = Instant::now();
     let s = scene.integrator().clone();
+    check_reference(scene, &s, control)?;
     let photons = if s.photons_per_iteration > 0 {
         s.photons_per_iteration
     } else {
@@ -142,7 +167,16 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
         }
         stats.iterations = i;
         radius = next_radius(radius, i, s.alpha, s.estimator);
+        if let (Some(reference), Some(first)) = (control.reference(), &film) {
+            let error = error_after(first, &multiple_sum, i, &s, reference);
+            stats.errors.push(error);
+            if s.target_rmse > 0.0 && error <= s.target_rmse as f64 {
+                stats.stopped = StopReason::TargetRmse;
+                break;
+            }
+        }
         if s.time_budget > 0.0 && start.elapsed().as_secs_f64() >= s.time_budget as f64 {
+            stats.stopped = StopReason::TimeBudget;
             break;
         }
     }
@@ -158,6 +192,46 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
         photons: first_photons,
         stats,
     })
+}
+
+/// A target needs a reference of the camera's size.
+fn check_reference(scene: &Scene, s: &IntegratorParams, control: &Control<'_>) -> Result<()> {
+    let pixels = scene.camera().width() as usize * scene.camera().height() as usize;
+    match control.reference() {
+        None if s.target_rmse > 0.0 => Err(Error::parameter(
+            "integrator.target_rmse",
+            s.target_rmse,
+            "0 when the render has no reference (set it in an experiment with [reference], which gives every cell its converged image)",
+        )),
+        Some(r) if r.len() != pixels => Err(Error::parameter(
+            "integrator.target_rmse",
+            s.target_rmse,
+            format!("a reference of {pixels} pixels, not {}", r.len()),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// The RMSE against `reference` of the image after `i` iterations: the first march's
+/// single and emission layers (as rendered) plus the mean multiple layer.
+fn error_after(
+    first: &Film,
+    multiple_sum: &[Vec3],
+    i: u32,
+    s: &IntegratorParams,
+    reference: &[Vec3],
+) -> f64 {
+    let mut layers = vec![Layer::Single];
+    if s.emission {
+        layers.push(Layer::Emission);
+    }
+    let image: Vec<Vec3> = first
+        .combine(&layers)
+        .iter()
+        .zip(multiple_sum)
+        .map(|(direct, m)| *direct + *m / i as f32)
+        .collect();
+    crate::film::rmse(&image, reference)
 }
 
 /// The photon map of iteration `i`: its own seed, so iterations are independent.

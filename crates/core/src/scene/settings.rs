@@ -22,6 +22,7 @@
 //! | `estimator` | `points` | the thesis's k-NN point estimate; `progressive` and `beam` are consistent / stepsize-free alternatives |
 //! | `alpha` | 4/7 | radius shrink per iteration: `((i+α)/(i+1))^{1/3}` for points (3-D kernel), `^{1/2}` for beams (a 2-D kernel across the ray) |
 //! | `iterations`, `photons_per_iteration`, `time_budget` | 16, 0 (= `volume_photons`), 0 (none) | progressive and beam: independent photon maps averaged (beam with 1: the plain beam estimate) |
+//! | `target_rmse` | 0 (off) | progressive and beam: stop after the iteration whose image is within this RMSE of the reference (in an experiment with `[reference]`) |
 //! | `initial_radius` | `nused` | progressive: median `nused`-th-neighbour distance of the first map; beam: each photon's own `nused`-th-neighbour distance (or `maxdist` for both) |
 //! | `film.exposure` | 0 | stops applied before sRGB encoding |
 
@@ -175,6 +176,9 @@ pub struct IntegratorParams {
     pub photons_per_iteration: u64,
     /// Progressive: stop after the iteration that passes this many seconds (0: no limit).
     pub time_budget: f32,
+    /// Progressive: stop after the iteration whose image is within this RMSE of the
+    /// reference the render is given (0: no target).
+    pub target_rmse: f32,
     /// Progressive: where the first radius comes from.
     pub initial_radius: InitialRadius,
 }
@@ -206,6 +210,7 @@ impl Default for IntegratorParams {
             iterations: 16,
             photons_per_iteration: 0,
             time_budget: 0.0,
+            target_rmse: 0.0,
             initial_radius: InitialRadius::Nused,
         }
     }
@@ -319,6 +324,14 @@ impl IntegratorParams {
             ));
         }
         check_range("time_budget", self.time_budget as f64, 0.0, 1e7)?;
+        check_range("target_rmse", self.target_rmse as f64, 0.0, 1e9)?;
+        if self.target_rmse > 0.0 && self.estimator == MsEstimator::Points {
+            return Err(Error::parameter(
+                "target_rmse",
+                self.target_rmse,
+                "0 with estimator = \"points\" (only the progressive and beam estimators iterate towards a target)",
+            ));
+        }
         if self.estimator == MsEstimator::Beam {
             self.validate_beam()?;
         }

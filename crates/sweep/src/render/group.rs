@@ -2,11 +2,14 @@
 //! [`volphot::render_shared`] call and written cell by cell (film, PNGs, record, metrics).
 
 use anyhow::Result;
-use volphot::{Layer, Provenance, Scene, SearchPath, SharedFilm, write_png};
+use glam::Vec3;
+use volphot::{
+    Film, Layer, Method, MsEstimator, Provenance, Scene, SearchPath, SharedFilm, write_png,
+};
 
 use super::Job;
 use super::scenes::Caches;
-use crate::analyse::{analyse_cell, compare_with_reference};
+use crate::analyse::{analyse_cell, compare_with_reference, displayed};
 use crate::store::{
     CELL_FILES, CellLock, CellRecord, CellTimings, FileCheck, OutputDir, StagedDir, VERSION,
     hostname, is_done, try_lock_cell, write_record,
@@ -53,6 +56,29 @@ impl GroupContext<'_> {
             None => control,
         }
     }
+}
+
+/// The converged image the group's iterating cells (progressive or beam estimator) are
+/// measured against after every iteration: their common reference's displayed layers.
+/// `None` without such cells or when they do not share one reference.
+fn progressive_reference(jobs: &[(&Job, CellLock)], out: &OutputDir) -> Result<Option<Vec<Vec3>>> {
+    let iterating: Vec<&Job> = jobs
+        .iter()
+        .map(|(j, _)| *j)
+        .filter(|j| {
+            let s = &j.spec.params.integrator;
+            s.method == Method::Photon && s.multiple && s.estimator != MsEstimator::Points
+        })
+        .collect();
+    let Some(key) = iterating.first().and_then(|j| j.reference.clone()) else {
+        return Ok(None);
+    };
+    if iterating.iter().any(|j| j.reference.as_ref() != Some(&key)) {
+        return Ok(None);
+    }
+    let film = Film::read_exr(&out.reference(&key).join("reference.exr"))?;
+    let emission = iterating[0].spec.params.integrator.emission;
+    Ok(Some(displayed(&film, true, emission)))
 }
 
 /// Renders one march group.
@@ -110,7 +136,13 @@ pub(crate) fn render_group(
             job.spec.index
         );
     }
-    let shared = volphot::render_shared(&scene, &integrators, &ctx.control(progress))?;
+    let reference = progressive_reference(&jobs, ctx.out)?;
+    let control = ctx.control(progress);
+    let control = match &reference {
+        Some(image) => control.with_reference(image),
+        None => control,
+    };
+    let shared = volphot::render_shared(&scene, &integrators, &control)?;
     let mut rendered = 0;
     // The per-cell locks in `jobs` are held until the cells are written.
     for ((job, _lock), result) in jobs.iter().zip(&shared.films) {
@@ -174,6 +206,7 @@ fn write_cell(
         provenance,
         photons: result.photons.clone(),
         cache_error: result.cache_error.clone(),
+        progressive: result.progressive.clone(),
         timings,
         peak_memory_bytes: volphot::peak_memory_bytes(),
         mean_single: film.mean(Layer::Single),

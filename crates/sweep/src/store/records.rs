@@ -130,6 +130,10 @@ pub(crate) struct CellRecord {
     /// What the caches were measured to err by, when the cell was rendered with one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(crate) cache_error: Option<volphot::CacheError>,
+    /// What the iterations did (progressive and beam estimators): radii, the error against
+    /// the reference after each, and why they stopped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) progressive: Option<volphot::ProgressiveStats>,
     /// Timings.
     pub(crate) timings: CellTimings,
     /// Peak resident memory of the process after the cell, bytes.
