@@ -177,10 +177,16 @@ pub struct IntegratorParams {
     /// Progressive: stop after the iteration that passes this many seconds (0: no limit).
     pub time_budget: f32,
     /// Progressive: stop after the iteration whose image is within this RMSE of the
-    /// reference the render is given (0: no target).
+    /// reference the render is given (0: no target). Not written when 0, so the content
+    /// addresses of cells without a target stay what they were.
+    #[serde(skip_serializing_if = "is_zero")]
     pub target_rmse: f32,
     /// Progressive: where the first radius comes from.
     pub initial_radius: InitialRadius,
+}
+
+fn is_zero(x: &f32) -> bool {
+    *x == 0.0
 }
 
 impl Default for IntegratorParams {
