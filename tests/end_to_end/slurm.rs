@@ -1,7 +1,8 @@
 //! A real single-node Slurm cluster (Debian's packages, started by
 //! `scripts/slurm-local.sh`): a grid through `--backend slurm --wait` must give the same
 //! CSV and images as a local run; a task that fails on purpose is reported and only its
-//! cell is resubmitted. The cluster is always stopped, also when an assertion fails.
+//! cell is resubmitted; `sweep tune --backend slurm` submits its rungs as job arrays and
+//! decides exactly as a local tune. The cluster is always stopped, also when an assertion fails.
 //!
 //! Runs under `CI=true` (where it may not skip) or with `VOLPHOT_SLURM_TEST=1`.
 
@@ -240,6 +241,89 @@ fn slurm_array_matches_local_run_and_resubmits_only_failures() {
         stable_csv(&flaky.join("cells.csv")),
         stable_csv(&local.join("cells.csv"))
     );
+
+    // 3. `sweep tune` puts each rung of its search on the cluster as one job array and
+    //    decides exactly as a local tune does.
+    let tune = write_experiment(
+        tmp.path(),
+        "slurm-tune",
+        "phantom-engine.toml",
+        r#"
+max_cells = 100
+[set]
+"volume.phantom.resolution" = [16, 16, 16]
+"camera.resolution" = [12, 12]
+"integrator.volume_photons" = 4000
+"integrator.stepsize" = 0.008
+"sigma.t" = 60
+[reference]
+spp = 32
+[tune]
+seed = 3
+objective = "rmse"
+budget = { renders = 8 }
+[tune.fidelity]
+resolution = [12, 12]
+min_resolution = [6, 6]
+min_photon_fraction = 0.5
+levels = 2
+eta = 3
+[tune.space]
+"integrator.nused" = { int = [2, 40], scale = "log" }
+"#,
+    );
+    let tune_local = tmp.path().join("tune-local");
+    run_ok(
+        sweep()
+            .args(["tune", "--quiet", "--no-report"])
+            .arg(&tune)
+            .arg("-o")
+            .arg(&tune_local),
+    );
+    let tune_remote = tmp.path().join("tune-remote");
+    run_ok(
+        sweep()
+            .args(["tune", "--quiet", "--no-report", "--backend", "slurm"])
+            .args([
+                "--max-concurrent",
+                "2",
+                "--cpus-per-task",
+                "1",
+                "--mem",
+                "500M",
+            ])
+            .arg(&tune)
+            .arg("-o")
+            .arg(&tune_remote)
+            .env("SLURM_CONF", &cluster.conf),
+    );
+    let observations = |out: &Path| {
+        let (h, rows) = read_csv(&out.join("tune/observations.csv"));
+        let keep: Vec<usize> = ["id", "level", "integrator.nused", "error"]
+            .iter()
+            .map(|k| {
+                h.iter()
+                    .position(|x| x == k)
+                    .unwrap_or_else(|| panic!("{k}"))
+            })
+            .collect();
+        rows.iter()
+            .map(|r| keep.iter().map(|&i| r[i].clone()).collect::<Vec<_>>())
+            .collect::<Vec<_>>()
+    };
+    let local_obs = observations(&tune_local);
+    assert!(local_obs.len() >= 4, "{local_obs:?}");
+    assert_eq!(
+        local_obs,
+        observations(&tune_remote),
+        "same proposals, same errors"
+    );
+    let jobs: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(tune_remote.join("slurm/jobs.json")).unwrap(),
+    )
+    .unwrap();
+    let rungs = jobs["submissions"].as_array().unwrap();
+    assert!(rungs.len() >= 2, "one job array per rung: {jobs}");
     eprintln!("slurm test: {:.1} s", start.elapsed().as_secs_f64());
     drop(cluster);
 }
