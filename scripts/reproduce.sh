@@ -9,7 +9,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --locked --bin sweep
-for experiment in quickstart artifacts single_vs_multiple albedo stepsize free_path transparent cost consistency presets; do
+for experiment in quickstart artifacts single_vs_multiple albedo stepsize free_path transparent cost consistency alpha presets; do
   echo "== $experiment"
   ./target/release/sweep "experiments/$experiment.toml" --quiet "$@"
 done

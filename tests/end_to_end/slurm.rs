@@ -67,6 +67,16 @@ impl Drop for Cluster {
     }
 }
 
+/// What each array task may use on the one-node test cluster.
+const TASK_RESOURCES: [&str; 6] = [
+    "--max-concurrent",
+    "2",
+    "--cpus-per-task",
+    "1",
+    "--mem",
+    "500M",
+];
+
 fn enabled() -> bool {
     let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
     ci || std::env::var("VOLPHOT_SLURM_TEST").is_ok_and(|v| v == "1")
@@ -146,18 +156,8 @@ fn slurm_array_matches_local_run_and_resubmits_only_failures() {
         c.arg(&exp)
             .arg("--output")
             .arg(out)
-            .args([
-                "--backend",
-                "slurm",
-                "--wait",
-                "--quiet",
-                "--max-concurrent",
-                "2",
-                "--cpus-per-task",
-                "1",
-                "--mem",
-                "500M",
-            ])
+            .args(["--backend", "slurm", "--wait", "--quiet"])
+            .args(TASK_RESOURCES)
             .args(extra)
             .env("SLURM_CONF", &cluster.conf);
         c
@@ -284,14 +284,7 @@ eta = 3
     run_ok(
         sweep()
             .args(["tune", "--quiet", "--no-report", "--backend", "slurm"])
-            .args([
-                "--max-concurrent",
-                "2",
-                "--cpus-per-task",
-                "1",
-                "--mem",
-                "500M",
-            ])
+            .args(TASK_RESOURCES)
             .arg(&tune)
             .arg("-o")
             .arg(&tune_remote)

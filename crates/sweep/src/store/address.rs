@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use volphot::SceneParams;
+use volphot::{Method, MsEstimator, SceneParams};
 
 use super::VERSION;
 
@@ -28,12 +28,31 @@ pub(crate) fn volume_identity(params: &SceneParams, base: &Path) -> Result<Strin
     Ok(String::new())
 }
 
+/// α as the addresses of existing cells were computed with it (the default until the
+/// `alpha` study moved it to 0.3).
+const ADDRESS_ALPHA: f32 = 4.0 / 7.0;
+
+/// The parameters an address is taken over. A render whose estimator does not iterate
+/// (the path tracer, the point estimate, no multiple scattering) cannot depend on the
+/// progressive radius shrink α; where such a render has today's default α it is addressed
+/// with the old default [`ADDRESS_ALPHA`], so the change of default neither orphaned
+/// finished cells nor re-rendered references (an α set explicitly is addressed as set).
+fn addressed(params: &SceneParams) -> SceneParams {
+    let mut p = params.clone();
+    let s = &p.integrator;
+    let iterates = s.method == Method::Photon && s.multiple && s.estimator != MsEstimator::Points;
+    if !iterates && s.alpha == volphot::DEFAULT_ALPHA {
+        p.integrator.alpha = ADDRESS_ALPHA;
+    }
+    p
+}
+
 /// The content address of a cell: version, effective parameters, volume (and transfer
 /// function file) identity.
 /// `base` resolves the scene's relative file paths.
 pub(crate) fn cell_hash(params: &SceneParams, base: &Path) -> Result<String> {
     let mut text = format!("volphot-sweep {VERSION}\n");
-    text += &serde_json::to_string(params)?;
+    text += &serde_json::to_string(&addressed(params))?;
     text += "\n";
     text += &volume_identity(params, base)?;
     if let Some(f) = &params.transfer.file {
@@ -47,7 +66,7 @@ pub(crate) fn cell_hash(params: &SceneParams, base: &Path) -> Result<String> {
 /// The content address of a reference: its scene (with the samples per pixel reset, so a
 /// reference can be refined in place) and the identity of the volume it renders.
 pub(crate) fn reference_hash(params: &SceneParams, volume_identity: &str) -> Result<String> {
-    let mut p = params.clone();
+    let mut p = addressed(params);
     p.integrator.reference_spp = 1;
     let text = format!(
         "volphot-reference {VERSION}\n{}\n{volume_identity}",
@@ -63,6 +82,29 @@ mod tests {
     fn params(extra: &str) -> SceneParams {
         let src = format!("{}{extra}", volphot::test_util::SMALL_SCENE);
         SceneParams::from_toml(&src, Path::new("s.toml")).unwrap()
+    }
+
+    #[test]
+    fn a_new_default_alpha_keeps_the_addresses_of_renders_it_cannot_change() {
+        let base = Path::new(".");
+        let hash = |extra: &str| cell_hash(&params(extra), base).unwrap();
+        assert_eq!(
+            hash(""),
+            hash("[integrator]\nalpha = 0.5714286\n"),
+            "the point estimate"
+        );
+        let progressive = "[integrator]\nestimator = \"progressive\"\n";
+        assert_ne!(
+            hash(progressive),
+            hash(&format!("{progressive}alpha = 0.5714286\n")),
+            "α shapes a progressive image"
+        );
+        let reference = |alpha: f32| {
+            let mut p = params("[integrator]\nmethod = \"reference\"\n");
+            p.integrator.alpha = alpha;
+            reference_hash(&p, "v").unwrap()
+        };
+        assert_eq!(reference(volphot::DEFAULT_ALPHA), reference(4.0 / 7.0));
     }
 
     #[test]
