@@ -462,9 +462,10 @@ spp = 16
             continue;
         };
         let record: serde_json::Value = serde_json::from_str(&text).unwrap();
+        // Not written when 0 (the content address of a cell without a target is unchanged).
         let target = record["scene"]["integrator"]["target_rmse"]
             .as_f64()
-            .unwrap();
+            .unwrap_or(0.0);
         let p = &record["progressive"];
         let errors = p["errors"].as_array().unwrap();
         if target > 0.0 {
