@@ -139,6 +139,9 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
     let mut film: Option<Film> = None;
     let (mut first_march, mut first_photons) = (MarchStats::default(), PhotonStats::default());
     let mut multiple_sum: Vec<Vec3> = Vec::new();
+    // With a reference: the first march's direct layers, the part of the image that no
+    // later iteration changes.
+    let mut direct: Vec<Vec3> = Vec::new();
     // The point estimate's radius, or the beams' scale of their own radii.
     let mut radius = match s.estimator {
         MsEstimator::Beam => 1.0,
@@ -163,12 +166,15 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
         if i == 1 {
             first_march = march;
             first_photons = map.stats().clone();
+            if control.reference().is_some() {
+                direct = direct_layers(&iteration_film, &s);
+            }
             film = Some(iteration_film);
         }
         stats.iterations = i;
         radius = next_radius(radius, i, s.alpha, s.estimator);
-        if let (Some(reference), Some(first)) = (control.reference(), &film) {
-            let error = error_after(first, &multiple_sum, i, &s, reference);
+        if let Some(reference) = control.reference() {
+            let error = error_after(&direct, &multiple_sum, i, reference);
             stats.errors.push(error);
             if s.target_rmse > 0.0 && error <= s.target_rmse as f64 {
                 stats.stopped = StopReason::TargetRmse;
@@ -212,24 +218,23 @@ fn check_reference(scene: &Scene, s: &IntegratorParams, control: &Control<'_>) -
     }
 }
 
-/// The RMSE against `reference` of the image after `i` iterations: the first march's
-/// single and emission layers (as rendered) plus the mean multiple layer.
-fn error_after(
-    first: &Film,
-    multiple_sum: &[Vec3],
-    i: u32,
-    s: &IntegratorParams,
-    reference: &[Vec3],
-) -> f64 {
+/// The layers a progressive render computes once, in its first march: single scattering
+/// and (when rendered) emission.
+fn direct_layers(film: &Film, s: &IntegratorParams) -> Vec<Vec3> {
     let mut layers = vec![Layer::Single];
     if s.emission {
         layers.push(Layer::Emission);
     }
-    let image: Vec<Vec3> = first
-        .combine(&layers)
+    film.combine(&layers)
+}
+
+/// The RMSE against `reference` of the image after `i` iterations: the direct layers plus
+/// the mean multiple layer.
+fn error_after(direct: &[Vec3], multiple_sum: &[Vec3], i: u32, reference: &[Vec3]) -> f64 {
+    let image: Vec<Vec3> = direct
         .iter()
         .zip(multiple_sum)
-        .map(|(direct, m)| *direct + *m / i as f32)
+        .map(|(d, m)| *d + *m / i as f32)
         .collect();
     crate::film::rmse(&image, reference)
 }

@@ -208,18 +208,17 @@ pub(crate) fn compare(
 ) -> ReferenceMetrics {
     let start = Instant::now();
     let n = image.len() as f64;
-    let mut se = 0.0f64;
     let mean_ref = volphot::mean_rgb(reference);
     let eps = 0.01 * mean_ref * mean_ref;
     let mut rel = 0.0f64;
     for (a, b) in image.iter().zip(reference) {
         for c in 0..3 {
             let d = (a[c] - b[c]) as f64;
-            se += d * d;
             rel += d * d / ((b[c] as f64).powi(2) + eps);
         }
     }
-    let rmse = (se / (3.0 * n)).sqrt();
+    // The same RMSE a progressive render stops on (`integrator.target_rmse`).
+    let rmse = volphot::rmse(image, reference);
     let rel_mse = rel / (3.0 * n);
     let a8 = to_srgb8(image, exposure);
     let b8 = to_srgb8(reference, exposure);

@@ -66,6 +66,21 @@ pub struct Unmapped {
     pub reason: String,
 }
 
+impl Unmapped {
+    /// `statement` (or only its parameter `what`) not mapped, because of `reason`.
+    fn at(statement: &Statement, what: Option<&Param>, reason: &str) -> Self {
+        Unmapped {
+            file: statement.file.clone(),
+            line: statement.line,
+            what: match what {
+                Some(p) => format!("{}: \"{} {}\"", statement.head(), p.ty, p.name),
+                None => statement.head(),
+            },
+            reason: reason.to_string(),
+        }
+    }
+}
+
 impl fmt::Display for Unmapped {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
@@ -187,15 +202,7 @@ impl Importer {
     }
 
     fn unmapped(&mut self, statement: &Statement, what: Option<&Param>, reason: &str) {
-        self.unmapped.push(Unmapped {
-            file: statement.file.clone(),
-            line: statement.line,
-            what: match what {
-                Some(p) => format!("{}: \"{} {}\"", statement.head(), p.ty, p.name),
-                None => statement.head(),
-            },
-            reason: reason.to_string(),
-        });
+        self.unmapped.push(Unmapped::at(statement, what, reason));
     }
 
     /// Reports the parameters of `statement` that no mapping took.
@@ -778,6 +785,10 @@ fn raw_volume_medium(
     unmapped: &mut Vec<Unmapped>,
 ) -> Result<(TransferParams, SigmaParams, f32)> {
     let transfer_on = p.bool("transfer")?.unwrap_or(false);
+    if !transfer_on && let Some(table) = p.take("transferfile") {
+        let reason = "ignored: \"bool transfer\" is false";
+        unmapped.push(Unmapped::at(s, Some(&table), reason));
+    }
     let table = p.string("transferfile")?;
     let threshold = p.take("threshold");
     let mut transfer = TransferParams::default();
@@ -792,21 +803,13 @@ fn raw_volume_medium(
                 output_dir,
             ));
             if let Some(t) = threshold {
-                unmapped.push(param_unmapped(s, &t, "ignored: the transfer function applies (the threshold is the 16-bit rule without one, §7.2.1)"));
+                unmapped.push(Unmapped::at(s, Some(&t), "ignored: the transfer function applies (the threshold is the 16-bit rule without one, §7.2.1)"));
             }
         }
-        (false, table, Some(t)) => {
+        (false, _, Some(t)) => {
             let value = Params::number_of(s, &t, &["integer", "float"])?;
             transfer.kind = TransferKind::Threshold;
             transfer.threshold = Some(value);
-            if let Some(file) = table {
-                unmapped.push(Unmapped {
-                    file: s.file.clone(),
-                    line: s.line,
-                    what: format!("{}: \"string transferfile\" \"{file}\"", s.head()),
-                    reason: "ignored: \"bool transfer\" is false".into(),
-                });
-            }
         }
         (false, _, None) => {}
     }
@@ -825,15 +828,6 @@ fn raw_volume_medium(
     SigmaMapping::create(&sigma).map_err(|e| s.error(e.within("sigma").to_string()))?;
     let g = p.float("g")?.unwrap_or(0.0) as f32;
     Ok((transfer, sigma, g))
-}
-
-fn param_unmapped(s: &Statement, p: &Param, reason: &str) -> Unmapped {
-    Unmapped {
-        file: s.file.clone(),
-        line: s.line,
-        what: format!("{}: \"{} {}\"", s.head(), p.ty, p.name),
-        reason: reason.into(),
-    }
 }
 
 /// `path` relative to `base` when both are on the same root, else absolute.

@@ -203,9 +203,18 @@ fn sixteen_bit_threshold_and_included_files() {
     let path = write(
         dir.path(),
         "w.pbrt",
-        "WorldBegin\nInclude \"lights.pbrt\"\nVolume \"rawvolumegrid\" \"integer nx\" 2 \"integer ny\" 2 \"integer nz\" 2\n \"string rawfile\" \"w.raw\" \"bool transfer\" [\"false\"] \"integer bits\" 16 \"integer threshold\" 40000\nWorldEnd\n",
+        "WorldBegin\nInclude \"lights.pbrt\"\nVolume \"rawvolumegrid\" \"integer nx\" 2 \"integer ny\" 2 \"integer nz\" 2\n \"string rawfile\" \"w.raw\" \"bool transfer\" [\"false\"] \"string transferfile\" \"t.pgm\" \"integer bits\" 16 \"integer threshold\" 40000\nWorldEnd\n",
     );
-    let p = import_pbrt(&path, dir.path()).unwrap().params;
+    let import = import_pbrt(&path, dir.path()).unwrap();
+    assert!(
+        import
+            .unmapped
+            .iter()
+            .any(|u| u.what.contains("transferfile") && u.reason.contains("is false")),
+        "a table the file switches off is named: {:?}",
+        import.unmapped
+    );
+    let p = import.params;
     assert_eq!(
         (p.transfer.kind, p.transfer.threshold),
         (TransferKind::Threshold, Some(40000.0))
