@@ -441,6 +441,28 @@ fn bad_tune_sections_are_located_errors() {
         .output()
         .unwrap();
     assert!(String::from_utf8_lossy(&out.stderr).contains("needs a [reference]"));
+    // A photon-mapping reference has no variance to remove.
+    let exp = experiment(
+        tmp.path(),
+        "photonref",
+        SIDE,
+        &tune_tables(1, 10, SIDE, good_space).replace("\"rmse\"", "\"rmse_corrected\""),
+    );
+    let text = std::fs::read_to_string(&exp).unwrap().replace(
+        "[reference]\nspp = 256\n",
+        "[reference]\nmethod = \"photon\"\n",
+    );
+    std::fs::write(&exp, text).unwrap();
+    let out = sweep()
+        .args(["tune", "--dry-run"])
+        .arg(&exp)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("rmse_corrected") && err.contains("photonref.toml"),
+        "{err}"
+    );
     // `sweep run` refuses a tune experiment; `sweep tune` a grid.
     let out = sweep().args(["run"]).arg(&exp).output().unwrap();
     assert!(!out.status.success());

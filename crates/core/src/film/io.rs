@@ -11,8 +11,8 @@ use crate::error::{Error, Result};
 use crate::util::write_atomic_with;
 
 impl Film {
-    /// Writes every layer, `total`, and variance layers (`var_single` …) when present, as
-    /// 32-bit float OpenEXR (ZIP, lossless), atomically.
+    /// Writes every layer, `total`, and variance layers (`var_single` …, `var_total`) when
+    /// present, as 32-bit float OpenEXR (ZIP, lossless), atomically.
     pub fn write_exr(&self, path: &Path) -> Result<()> {
         use exr::prelude::{
             AnyChannel, AnyChannels, Encoding, FlatSamples, Image, SmallVec, Text, WritableImage,
@@ -35,6 +35,9 @@ impl Film {
             for layer in Layer::ALL {
                 push(&format!("var_{}", layer.name()), &var[layer.index()]);
             }
+        }
+        if let Some(var) = &self.total_variance {
+            push("var_total", var);
         }
         if let Some(depth) = &self.depth {
             list.push(AnyChannel::new(
@@ -104,6 +107,9 @@ impl Film {
                 take("var_multiple")?,
                 take("var_emission")?,
             ]);
+        }
+        if found.contains_key("var_total") {
+            film.total_variance = Some(take("var_total")?);
         }
         if let Some(z) = layer
             .channel_data
@@ -317,6 +323,7 @@ mod tests {
         ];
         let film = film
             .with_variance(var)
+            .with_total_variance((0..15).map(|i| Vec3::splat(i as f32 * 0.25)).collect())
             .with_depth((0..15).map(|i| i as f32 * 0.5).collect());
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("f.exr");

@@ -58,6 +58,9 @@ pub struct Film {
     height: usize,
     layers: [Vec<Vec3>; 3],
     variance: Option<[Vec<Vec3>; 3]>,
+    /// Variance of the mean of the layers' sum, when known: not the sum of the layers'
+    /// variances, because one path feeds several layers.
+    total_variance: Option<Vec<Vec3>>,
     depth: Option<Vec<f32>>,
 }
 
@@ -74,6 +77,7 @@ impl Film {
                 vec![Vec3::ZERO; n],
             ],
             variance: None,
+            total_variance: None,
             depth: None,
         }
     }
@@ -89,6 +93,7 @@ impl Film {
             height,
             layers,
             variance: None,
+            total_variance: None,
             depth: None,
         }
     }
@@ -97,6 +102,13 @@ impl Film {
     pub fn with_variance(mut self, variance: [Vec<Vec3>; 3]) -> Self {
         assert!(variance.iter().all(|l| l.len() == self.width * self.height));
         self.variance = Some(variance);
+        self
+    }
+
+    /// Attaches the per-pixel variance of the mean of the layers' sum.
+    pub fn with_total_variance(mut self, variance: Vec<Vec3>) -> Self {
+        assert_eq!(variance.len(), self.width * self.height);
+        self.total_variance = Some(variance);
         self
     }
 
@@ -143,6 +155,37 @@ impl Film {
     /// Variance layers, when known.
     pub fn variance(&self, layer: Layer) -> Option<&[Vec3]> {
         self.variance.as_ref().map(|v| v[layer.index()].as_slice())
+    }
+
+    /// Variance of the total's mean, when known.
+    pub fn total_variance(&self) -> Option<&[Vec3]> {
+        self.total_variance.as_deref()
+    }
+
+    /// Per-pixel variance of the mean of the sum of `layers`: the noise a comparison
+    /// against this film as a reference should discount. Exact when the
+    /// film knows its total's variance and every layer left out is black; otherwise the
+    /// sum of the layers' variances, which leaves out their covariance (layers fed by one
+    /// path are positively correlated in the path tracer, so the sum is then a lower
+    /// bound). `None` without variance layers.
+    pub fn variance_of_sum(&self, layers: &[Layer]) -> Option<Vec<Vec3>> {
+        let left_out_black = Layer::ALL
+            .iter()
+            .filter(|l| !layers.contains(l))
+            .all(|&l| self.layer(l).iter().all(|v| *v == Vec3::ZERO));
+        if let Some(total) = &self.total_variance
+            && left_out_black
+        {
+            return Some(total.clone());
+        }
+        let variance = self.variance.as_ref()?;
+        let mut sum = vec![Vec3::ZERO; self.width * self.height];
+        for &layer in layers {
+            for (s, v) in sum.iter_mut().zip(&variance[layer.index()]) {
+                *s += *v;
+            }
+        }
+        Some(sum)
     }
 
     /// Sets one pixel of a layer.

@@ -34,8 +34,8 @@ pub struct ReferenceAccumulator {
     height: usize,
     passes: u32,
     pixels: Vec<PixelStats>,
-    /// Whether the total's statistics cover every pass (not after [`Self::from_film`],
-    /// whose film keeps only per-layer variances).
+    /// Whether the total's statistics cover every pass (not after [`Self::from_film`] of
+    /// a film written without the total's variance).
     total_known: bool,
 }
 
@@ -110,6 +110,14 @@ impl ReferenceAccumulator {
                 }
             }
         }
+        if passes >= 2
+            && let Some(total) = film.total_variance()
+        {
+            for (px, var) in acc.pixels.iter_mut().zip(total) {
+                px.m2[3] = *var * k;
+            }
+            acc.total_known = true;
+        }
         Ok(acc)
     }
 
@@ -174,14 +182,20 @@ impl ReferenceAccumulator {
             .collect()
     }
 
-    /// The current estimate with per-pixel variance of the mean.
+    /// The current estimate with per-pixel variance of the mean (of each layer, and of
+    /// their total when known).
     pub fn film(&self) -> Film {
         let layer = |i: usize| self.pixels.iter().map(|p| p.mean[i]).collect();
-        Film::from_layers(self.width, self.height, [layer(0), layer(1), layer(2)]).with_variance([
-            self.variance_of_mean(0),
-            self.variance_of_mean(1),
-            self.variance_of_mean(2),
-        ])
+        let film = Film::from_layers(self.width, self.height, [layer(0), layer(1), layer(2)])
+            .with_variance([
+                self.variance_of_mean(0),
+                self.variance_of_mean(1),
+                self.variance_of_mean(2),
+            ]);
+        match self.total_variance() {
+            Some(total) => film.with_total_variance(total),
+            None => film,
+        }
     }
 
     /// Per-pixel variance of the mean of the total (all layers), when every pass was
@@ -263,4 +277,67 @@ pub fn render_reference(scene: &Scene, passes: u32, control: &Control<'_>) -> Re
     let mut acc = ReferenceAccumulator::new(camera.width() as usize, camera.height() as usize);
     let seconds = acc.add_passes(scene, passes, control)?;
     Ok((acc.film(), seconds))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::{SPOT_SPHERE, scene};
+
+    #[test]
+    fn the_total_variance_survives_a_film_and_a_resume() {
+        let scene = scene(SPOT_SPHERE);
+        let none = Control::none();
+        let mut whole = ReferenceAccumulator::new(20, 20);
+        whole.add_passes(&scene, 8, &none).unwrap();
+        let mut first = ReferenceAccumulator::new(20, 20);
+        first.add_passes(&scene, 5, &none).unwrap();
+        // Through an EXR, as the sweep refines a reference in place.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("reference.exr");
+        first.film().write_exr(&path).unwrap();
+        let mut resumed =
+            ReferenceAccumulator::from_film(&Film::read_exr(&path).unwrap(), 5).unwrap();
+        resumed.add_passes(&scene, 3, &none).unwrap();
+        let (a, b) = (
+            whole.total_variance().unwrap(),
+            resumed.total_variance().unwrap(),
+        );
+        for (x, y) in a.iter().zip(&b) {
+            assert!(
+                (*x - *y).abs().max_element() <= 1e-5 * x.max_element().max(1e-6),
+                "{x} {y}"
+            );
+        }
+        // The total's variance is not the layers' sum: one path feeds both layers.
+        let film = whole.film();
+        let summed: Vec<Vec3> = (film.variance(Layer::Single).unwrap().iter())
+            .zip(film.variance(Layer::Multiple).unwrap())
+            .map(|(s, m)| *s + *m)
+            .collect();
+        assert_ne!(summed, a);
+        // Emission is black here, so single + multiple is the total.
+        let both = film.variance_of_sum(&[Layer::Single, Layer::Multiple]);
+        assert_eq!(both.as_deref(), Some(a.as_slice()));
+        // A film without the total's variance (written before it was kept) resumes without.
+        let layers_only = Film::from_layers(
+            20,
+            20,
+            std::array::from_fn(|i| film.layer(Layer::ALL[i]).to_vec()),
+        )
+        .with_variance(std::array::from_fn(|i| {
+            film.variance(Layer::ALL[i]).unwrap().to_vec()
+        }));
+        assert_eq!(
+            layers_only.variance_of_sum(&[Layer::Single, Layer::Multiple]),
+            Some(summed),
+            "without the total's variance: the layers' sum"
+        );
+        assert!(
+            ReferenceAccumulator::from_film(&layers_only, 8)
+                .unwrap()
+                .total_variance()
+                .is_none()
+        );
+    }
 }

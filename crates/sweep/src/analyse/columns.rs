@@ -122,6 +122,11 @@ pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
         value: |_, m| m.map(|m| m.rmse),
     },
     MetricColumn {
+        key: "rmse_corrected",
+        header: "rmse_corrected [W/(m2 sr)]",
+        value: |_, m| m.and_then(|m| m.rmse_corrected),
+    },
+    MetricColumn {
         key: "rel_mse",
         header: "rel_mse [1]",
         value: |_, m| m.map(|m| m.rel_mse),

@@ -9,6 +9,7 @@ use std::time::Instant;
 use glam::Vec3;
 use volphot::{Film, Layer, to_srgb8};
 
+use super::agreement::mse_against_noisy_reference;
 use super::disco::{Gray, disco_score, gaussian_blur, relative_disco_score};
 use crate::store::{
     DiscoScore, IMAGE_STATS_VERSION, ImageStats, REFERENCE_METRICS_VERSION, ReferenceMetrics,
@@ -21,6 +22,11 @@ pub(crate) fn luminance(v: Vec3) -> f32 {
 
 /// The layers a cell displays: single (+ multiple when rendered) (+ emission when rendered).
 pub(crate) fn displayed(film: &Film, multiple: bool, emission: bool) -> Vec<Vec3> {
+    film.combine(&displayed_layers(multiple, emission))
+}
+
+/// The layers a cell shows: single, plus multiple and emission when rendered.
+pub(crate) fn displayed_layers(multiple: bool, emission: bool) -> Vec<Layer> {
     let mut layers = vec![Layer::Single];
     if multiple {
         layers.push(Layer::Multiple);
@@ -28,7 +34,7 @@ pub(crate) fn displayed(film: &Film, multiple: bool, emission: bool) -> Vec<Vec3
     if emission {
         layers.push(Layer::Emission);
     }
-    film.combine(&layers)
+    layers
 }
 
 /// Luminance of a film's multiple-scattering layer, where disco balls live.
@@ -197,15 +203,17 @@ pub(crate) fn disco_excess(film: &Film, reference: &Film) -> DiscoScore {
     )
 }
 
-/// Errors of `image` against `reference` (linear RGB, same size).
+/// Errors of `image` against `reference` (linear RGB, same size); with the per-pixel
+/// variance of the reference's mean, also the RMSE with the reference's own noise removed.
 pub(crate) fn compare(
     image: &[Vec3],
     reference: &[Vec3],
-    width: usize,
-    height: usize,
+    reference_variance: Option<&[Vec3]>,
+    size: [usize; 2],
     exposure: f32,
     reference_key: &str,
 ) -> ReferenceMetrics {
+    let [width, height] = size;
     let start = Instant::now();
     let n = image.len() as f64;
     let mean_ref = volphot::mean_rgb(reference);
@@ -219,6 +227,14 @@ pub(crate) fn compare(
     }
     // The same RMSE a progressive render stops on (`integrator.target_rmse`).
     let rmse = volphot::rmse(image, reference);
+    // A noisy reference adds its variance to every squared difference (see
+    // `mse_against_noisy_reference`); what remains is the image's own error. Below 0 the
+    // image is within the reference's noise.
+    let rmse_corrected = reference_variance.map(|var| {
+        mse_against_noisy_reference(image, reference, var)
+            .max(0.0)
+            .sqrt()
+    });
     let rel_mse = rel / (3.0 * n);
     let a8 = to_srgb8(image, exposure);
     let b8 = to_srgb8(reference, exposure);
@@ -227,7 +243,9 @@ pub(crate) fn compare(
     ReferenceMetrics {
         version: REFERENCE_METRICS_VERSION,
         reference: reference_key.to_string(),
+        reference_passes: 0,
         rmse,
+        rmse_corrected,
         rel_mse,
         ssim,
         flip,
@@ -278,7 +296,7 @@ mod tests {
         let img: Vec<Vec3> = (0..64 * 64)
             .map(|i| Vec3::splat((i % 64) as f32 / 64.0))
             .collect();
-        let m = compare(&img, &img, 64, 64, 0.0, "r");
+        let m = compare(&img, &img, None, [64, 64], 0.0, "r");
         assert_eq!(m.rmse, 0.0);
         assert_eq!(m.rel_mse, 0.0);
         assert!((m.ssim - 1.0).abs() < 1e-9, "{}", m.ssim);
@@ -341,8 +359,8 @@ mod tests {
             .collect();
         let small: Vec<Vec3> = img.iter().map(|v| *v * 1.05).collect();
         let large: Vec<Vec3> = img.iter().map(|v| *v * 1.5).collect();
-        let s = compare(&small, &img, 64, 64, 0.0, "r");
-        let l = compare(&large, &img, 64, 64, 0.0, "r");
+        let s = compare(&small, &img, None, [64, 64], 0.0, "r");
+        let l = compare(&large, &img, None, [64, 64], 0.0, "r");
         assert!(l.rmse > s.rmse && l.rel_mse > s.rel_mse && l.flip > s.flip && l.ssim <= s.ssim);
         assert!((s.rmse - 0.05 * volphot::mean_rgb(&img)).abs() < 0.01);
     }

@@ -1,6 +1,6 @@
 //! Films → numbers: what a finished cell's image says (disco-ball score, detail, lit
-//! regions, depth cues), its errors against the reference (RMSE, relMSE, SSIM, FLIP, disco
-//! excess), and the metric column schema that turns records into `cells.csv`.
+//! regions, depth cues), its errors against the reference (RMSE, also with the reference's
+//! noise removed, relMSE, SSIM, FLIP, disco excess), and the metric column schema that turns records into `cells.csv`.
 
 mod agreement;
 mod columns;
@@ -16,7 +16,7 @@ use volphot::{Film, SceneParams};
 pub(crate) use agreement::{Agreement, agreement, mse_against_noisy_reference};
 pub(crate) use columns::{METRIC_COLUMNS, MetricColumn, is_metric, metric_keys};
 pub(crate) use images::{
-    compare, disco, disco_excess, displayed, flip_map, image_stats, luminance,
+    compare, disco, disco_excess, displayed, displayed_layers, flip_map, image_stats, luminance,
 };
 
 use crate::store::{
@@ -59,9 +59,9 @@ pub(crate) fn compare_with_reference(
     film: &Film,
 ) -> Result<()> {
     let ref_dir = out.reference(key);
-    if read_reference_record(&ref_dir).is_err() {
+    let Ok(record) = read_reference_record(&ref_dir) else {
         return Ok(());
-    }
+    };
     let reference = Film::read_exr(&ref_dir.join("reference.exr"))?;
     let [w, h] = params.camera.resolution.map(|n| n as usize);
     anyhow::ensure!(
@@ -76,7 +76,17 @@ pub(crate) fn compare_with_reference(
         params.integrator.emission,
     );
     let shown = displayed(film, params.integrator.multiple, params.integrator.emission);
-    let mut m = compare(&shown, &ref_img, w, h, params.film.exposure, key);
+    let layers = displayed_layers(params.integrator.multiple, params.integrator.emission);
+    let variance = reference.variance_of_sum(&layers);
+    let mut m = compare(
+        &shown,
+        &ref_img,
+        variance.as_deref(),
+        [w, h],
+        params.film.exposure,
+        key,
+    );
+    m.reference_passes = record.passes;
     if params.integrator.multiple {
         let excess = disco_excess(film, &reference);
         m.disco_excess = excess.energy;

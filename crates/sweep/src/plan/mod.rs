@@ -68,7 +68,6 @@ pub(crate) use file::{
 pub(crate) use keys::{flatten_set, flatten_space, short_key, toml_to_json, value_text};
 pub(crate) use reference::{reference_key, reference_params};
 pub(crate) use source::Source;
-#[cfg(test)]
 pub(crate) use tune::Metric;
 pub(crate) use tune::{
     Budget, Fidelity, PHOTONS_KEY, Param, ParamKind, Proposal, RESOLUTION_KEY, TuneFile, TuneSpec,
@@ -184,6 +183,15 @@ impl Experiment {
             return Err(source.error(
                 "tune",
                 "[tune] needs a [reference] section: the objective measures errors against it (e.g. [reference] method = \"path\", spp = 256)",
+            ));
+        }
+        if let (Some(t), Some(r)) = (&tune, &file.reference)
+            && r.method != ReferenceMethod::Path
+            && t.objective.iter().any(|(m, _)| *m == Metric::RmseCorrected)
+        {
+            return Err(source.error(
+                "tune.objective",
+                "`rmse_corrected` removes the reference's noise, which only a path-traced reference measures: use [reference] method = \"path\", or objective = \"rmse\"",
             ));
         }
         Ok(Experiment {

@@ -5,7 +5,7 @@
 //! ```toml
 //! [tune]
 //! seed = 7
-//! objective = "rmse"                 # rmse | rel_mse | flip | disco_excess, or weights:
+//! objective = "rmse"                 # rmse | rmse_corrected | rel_mse | flip | disco_excess, or weights:
 //! # objective = { rmse = 1.0, flip = 0.5 }
 //! budget = { renders = 60 }          # or { seconds = 3600 } (recorded render seconds)
 //! proposal = "tpe"                   # or "random"
@@ -114,6 +114,8 @@ pub(crate) enum Proposal {
 pub(crate) enum Metric {
     /// Root-mean-square error against the reference.
     Rmse,
+    /// The same with the reference's own noise removed (the error against the truth).
+    RmseCorrected,
     /// Relative MSE against the reference.
     RelMse,
     /// Mean FLIP error against the reference.
@@ -123,8 +125,9 @@ pub(crate) enum Metric {
 }
 
 impl Metric {
-    const ALL: [Metric; 4] = [
+    const ALL: [Metric; 5] = [
         Metric::Rmse,
+        Metric::RmseCorrected,
         Metric::RelMse,
         Metric::Flip,
         Metric::DiscoExcess,
@@ -134,6 +137,7 @@ impl Metric {
     pub(crate) fn key(self) -> &'static str {
         match self {
             Metric::Rmse => "rmse",
+            Metric::RmseCorrected => "rmse_corrected",
             Metric::RelMse => "rel_mse",
             Metric::Flip => "flip",
             Metric::DiscoExcess => "disco_excess",

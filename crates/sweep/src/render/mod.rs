@@ -210,26 +210,11 @@ pub(crate) fn render_cells(
         selected: selected.len(),
         ..Default::default()
     };
-    let mut jobs = Vec::new();
-    for &i in &selected {
-        match cell_state(&out.cell(&plan.cells[i].hash)) {
-            CellState::Done(_) => {
-                summary.skipped += 1;
-                continue;
-            }
-            CellState::Damaged(why) => {
-                eprintln!("cell {i} is damaged ({why}); rendering it again");
-                summary.damaged += 1;
-            }
-            CellState::Missing => {}
-        }
-        jobs.push(Job {
-            spec: cells[i].clone(),
-            hash: plan.cells[i].hash.clone(),
-            reference: plan.cells[i].reference.clone(),
-        });
-    }
-    if !jobs.is_empty() {
+    let (jobs, done) = select_jobs(&selected, cells, plan, out, &mut summary);
+    // Finished cells still check their reference: one whose `spp` was raised since is
+    // refined, and the report then recomputes their errors against it.
+    let refine = exp.reference.is_some() && !done.is_empty();
+    if !jobs.is_empty() || refine {
         let search = SearchPath::from_env();
         let caches = Caches::default();
         let multi = crate::progress::multi(opts.quiet);
@@ -241,7 +226,7 @@ pub(crate) fn render_cells(
             panic_on: &cells_from_env(PANIC_CELLS_ENV),
             time_limit: opts.time_limit,
         };
-        let (references, failed) = render_references(exp, &jobs, &ctx, &multi);
+        let (references, failed) = render_references(exp, jobs.iter().chain(&done), &ctx, &multi);
         summary.references = references;
         // Cells whose reference failed fail with it; the others go on.
         let (jobs, without_reference): (Vec<Job>, Vec<Job>) = jobs.into_iter().partition(|j| {
@@ -284,6 +269,41 @@ pub(crate) fn render_cells(
     Ok(summary)
 }
 
+/// The selected cells to render, and those already finished that have a reference
+/// (every finished cell counts as skipped; damaged ones are rendered again).
+fn select_jobs(
+    selected: &[usize],
+    cells: &[CellSpec],
+    plan: &PlanRecord,
+    out: &OutputDir,
+    summary: &mut RunSummary,
+) -> (Vec<Job>, Vec<Job>) {
+    let (mut jobs, mut done) = (Vec::new(), Vec::new());
+    for &i in selected {
+        let job = Job {
+            spec: cells[i].clone(),
+            hash: plan.cells[i].hash.clone(),
+            reference: plan.cells[i].reference.clone(),
+        };
+        match cell_state(&out.cell(&plan.cells[i].hash)) {
+            CellState::Done(_) => {
+                summary.skipped += 1;
+                if job.reference.is_some() {
+                    done.push(job);
+                }
+                continue;
+            }
+            CellState::Damaged(why) => {
+                eprintln!("cell {i} is damaged ({why}); rendering it again");
+                summary.damaged += 1;
+            }
+            CellState::Missing => {}
+        }
+        jobs.push(job);
+    }
+    (jobs, done)
+}
+
 /// Cells named by a test switch ([`FAIL_CELLS_ENV`], [`PANIC_CELLS_ENV`]).
 fn cells_from_env(var: &str) -> Vec<usize> {
     std::env::var(var)
@@ -294,9 +314,9 @@ fn cells_from_env(var: &str) -> Vec<usize> {
 
 /// Renders the references the jobs need, each once; returns how many were rendered and
 /// which failed (with their errors).
-fn render_references(
+fn render_references<'a>(
     exp: &Experiment,
-    jobs: &[Job],
+    jobs: impl Iterator<Item = &'a Job>,
     ctx: &GroupContext<'_>,
     multi: &indicatif::MultiProgress,
 ) -> (usize, Vec<(String, String)>) {

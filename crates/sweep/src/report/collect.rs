@@ -63,11 +63,14 @@ pub(crate) fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
         };
         let mut reference = None;
         if let (Some(r), Some(key)) = (&record, &p.reference) {
-            reference = read_reference_metrics(&dir, key);
-            if reference.is_none() && read_reference_record(&out.reference(key)).is_ok() {
+            let passes = read_reference_record(&out.reference(key))
+                .ok()
+                .map(|rec| rec.passes);
+            reference = read_reference_metrics(&dir, key, passes);
+            if reference.is_none() && passes.is_some() {
                 let film = cell_film(&dir, &mut film)?;
                 compare_with_reference(out, &p.hash, key, &r.provenance.scene, film)?;
-                reference = read_reference_metrics(&dir, key);
+                reference = read_reference_metrics(&dir, key, passes);
             }
         }
         let failure = if record.is_none() {

@@ -207,7 +207,7 @@ impl<'a> AxisPairs<'a> {
         let (ia, w, h) = shown(out, a, ra)?;
         let (ib, _, _) = shown(out, b, rb)?;
         let exposure = ra.provenance.scene.film.exposure;
-        let m = compare(&ia, &ib, w, h, exposure, &b.planned.hash);
+        let m = compare(&ia, &ib, None, [w, h], exposure, &b.planned.hash);
         let diffs: Vec<f32> = ia
             .iter()
             .zip(&ib)

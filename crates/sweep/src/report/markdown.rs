@@ -12,13 +12,14 @@ use crate::plan::Experiment;
 use crate::store::{OutputDir, PlanRecord, read_reference_record};
 
 /// The metrics shown in the report's cells table (when any cell has them).
-const TABLE_METRICS: [&str; 11] = [
+const TABLE_METRICS: [&str; 12] = [
     "empirical_mfp",
     "nominal_mfp",
     "mean_single",
     "mean_multiple",
     "ms_share",
     "rmse",
+    "rmse_corrected",
     "flip",
     "ssim",
     "disco_energy",

@@ -12,7 +12,7 @@ use volphot::{PhotonStats, Provenance, SceneParams, VolumeSource};
 use super::{FileCheck, OutputDir};
 
 /// Version of the reference metrics; stored metrics of another version are recomputed.
-pub(crate) const REFERENCE_METRICS_VERSION: u32 = 2;
+pub(crate) const REFERENCE_METRICS_VERSION: u32 = 3;
 
 /// Version of [`ImageStats`]; records with an older one are recomputed from the cell's
 /// `film.exr` when a report is collected (version 2 added the mean display luminance).
@@ -26,8 +26,16 @@ pub(crate) struct ReferenceMetrics {
     pub(crate) version: u32,
     /// Which reference (its content address).
     pub(crate) reference: String,
+    /// Samples per pixel the reference had (a refined reference makes these stale).
+    #[serde(default)]
+    pub(crate) reference_passes: u32,
     /// Root-mean-square error of linear radiance.
     pub(crate) rmse: f64,
+    /// The same with the reference's own noise removed: `sqrt(max(0, MSE − mean
+    /// variance of the reference's mean))` — the error against the true image. `None`
+    /// when the reference carries no variance (a photon-mapping reference).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) rmse_corrected: Option<f64>,
     /// Mean of `(x − y)² / (y² + 0.01·mean(y)²)` (relative MSE, robust near black).
     pub(crate) rel_mse: f64,
     /// SSIM of the tone-mapped images (image-compare's MSSIM on luma, 1 = identical).
@@ -182,12 +190,19 @@ pub(crate) fn write_record(dir: &Path, record: &CellRecord) -> Result<()> {
     Ok(())
 }
 
-/// Reads the reference metrics of a cell for one reference, if computed.
-pub(crate) fn read_reference_metrics(dir: &Path, reference: &str) -> Option<ReferenceMetrics> {
+/// Reads the reference metrics of a cell for one reference, if computed by this version
+/// against the reference as it is now (`passes`, when its record is at hand: metrics of a
+/// reference refined since are stale).
+pub(crate) fn read_reference_metrics(
+    dir: &Path,
+    reference: &str,
+    passes: Option<u32>,
+) -> Option<ReferenceMetrics> {
     let text = std::fs::read_to_string(dir.join(format!("vs-{reference}.json"))).ok()?;
     serde_json::from_str::<ReferenceMetrics>(&text)
         .ok()
         .filter(|m| m.version == REFERENCE_METRICS_VERSION)
+        .filter(|m| passes.is_none_or(|n| n == m.reference_passes))
 }
 
 /// One planned cell as recorded in `plan.json`.

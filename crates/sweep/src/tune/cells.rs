@@ -129,11 +129,14 @@ impl<'a> TuneCells<'a> {
         let key = reference_key(&self.cells[index], reference).ok()?;
         let hash = &self.hashes[index];
         let dir = out.cell(hash);
-        let mut metrics = read_reference_metrics(&dir, &key);
-        if metrics.is_none() && read_reference_record(&out.reference(&key)).is_ok() {
+        let passes = read_reference_record(&out.reference(&key))
+            .ok()
+            .map(|r| r.passes);
+        let mut metrics = read_reference_metrics(&dir, &key, passes);
+        if metrics.is_none() && passes.is_some() {
             let film = Film::read_exr(&dir.join("film.exr")).ok()?;
             compare_with_reference(out, hash, &key, &record.provenance.scene, &film).ok()?;
-            metrics = read_reference_metrics(&dir, &key);
+            metrics = read_reference_metrics(&dir, &key, passes);
         }
         let metrics = metrics?;
         let mut sum = 0.0;
