@@ -517,6 +517,11 @@ impl RunArgs {
 
     /// The backend, chosen once.
     pub(crate) fn backend(&self) -> Result<Box<dyn Backend>> {
+        // Without this check the local backend ignored `--dry-run` and rendered every cell.
+        anyhow::ensure!(
+            !self.dry_run || self.backend == BackendChoice::Slurm,
+            "--dry-run writes Slurm job scripts without submitting them: with --backend local it has nothing to hold back; use `sweep plan EXPERIMENT` to list the cells and their cost without rendering, or --backend slurm --dry-run"
+        );
         backend(
             self.backend,
             self.jobs,

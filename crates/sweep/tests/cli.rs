@@ -38,3 +38,23 @@ fn bad_arguments_are_clear_errors() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("nope.toml"));
 }
+
+#[test]
+fn a_local_dry_run_is_refused_instead_of_rendering() {
+    let tmp = tempfile::tempdir().unwrap();
+    let experiment = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../experiments/quickstart.toml"
+    );
+    let out = sweep()
+        .args(["run", experiment, "--dry-run", "--output"])
+        .arg(tmp.path().join("out"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("sweep plan"), "{err}");
+    assert!(
+        !tmp.path().join("out/cells").exists(),
+        "cells were rendered"
+    );
+}
