@@ -134,7 +134,7 @@ pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
     let mut cache_error = None;
     let mut progressive = None;
     let (film, photons, march, reference_spp) = match (s.method, s.estimator) {
-        (Method::Photon, MsEstimator::Progressive | MsEstimator::Beam) if s.multiple => {
+        (Method::Photon, _) if s.iterates() => {
             let out = render_progressive(scene, control)?;
             timings.photon_tracing = out.stats.photon_seconds;
             timings.tree_build = out.stats.tree_seconds;

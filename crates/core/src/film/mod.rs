@@ -49,6 +49,19 @@ impl Layer {
     fn index(self) -> usize {
         self as usize
     }
+
+    /// The layers an image of a render shows: single scattering, plus multiple
+    /// scattering and emission when they were rendered.
+    pub fn shown(multiple: bool, emission: bool) -> Vec<Layer> {
+        let mut layers = vec![Layer::Single];
+        if multiple {
+            layers.push(Layer::Multiple);
+        }
+        if emission {
+            layers.push(Layer::Emission);
+        }
+        layers
+    }
 }
 
 /// An HDR image with three radiance layers (and optional variance layers).

@@ -167,7 +167,7 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
             first_march = march;
             first_photons = map.stats().clone();
             if control.reference().is_some() {
-                direct = direct_layers(&iteration_film, &s);
+                direct = iteration_film.combine(&Layer::shown(false, s.emission));
             }
             film = Some(iteration_film);
         }
@@ -216,16 +216,6 @@ fn check_reference(scene: &Scene, s: &IntegratorParams, control: &Control<'_>) -
         )),
         _ => Ok(()),
     }
-}
-
-/// The layers a progressive render computes once, in its first march: single scattering
-/// and (when rendered) emission.
-fn direct_layers(film: &Film, s: &IntegratorParams) -> Vec<Vec3> {
-    let mut layers = vec![Layer::Single];
-    if s.emission {
-        layers.push(Layer::Emission);
-    }
-    film.combine(&layers)
 }
 
 /// The RMSE against `reference` of the image after `i` iterations: the direct layers plus

@@ -228,6 +228,14 @@ impl Default for IntegratorParams {
 }
 
 impl IntegratorParams {
+    /// Whether a render with these settings iterates over independent photon maps
+    /// ([`crate::render_progressive`]): photon mapping with multiple scattering by the
+    /// progressive or the beam estimator. Only such a render depends on `alpha`,
+    /// `iterations` and `target_rmse`, and only it records an error per iteration.
+    pub fn iterates(&self) -> bool {
+        self.method == Method::Photon && self.multiple && self.estimator != MsEstimator::Points
+    }
+
     /// What the beam estimate cannot combine with.
     fn validate_beam(&self) -> Result<()> {
         if matches!(self.estimate, Estimate::Albedo | Estimate::Thesis) {

@@ -22,19 +22,7 @@ pub(crate) fn luminance(v: Vec3) -> f32 {
 
 /// The layers a cell displays: single (+ multiple when rendered) (+ emission when rendered).
 pub(crate) fn displayed(film: &Film, multiple: bool, emission: bool) -> Vec<Vec3> {
-    film.combine(&displayed_layers(multiple, emission))
-}
-
-/// The layers a cell shows: single, plus multiple and emission when rendered.
-pub(crate) fn displayed_layers(multiple: bool, emission: bool) -> Vec<Layer> {
-    let mut layers = vec![Layer::Single];
-    if multiple {
-        layers.push(Layer::Multiple);
-    }
-    if emission {
-        layers.push(Layer::Emission);
-    }
-    layers
+    film.combine(&Layer::shown(multiple, emission))
 }
 
 /// Luminance of a film's multiple-scattering layer, where disco balls live.

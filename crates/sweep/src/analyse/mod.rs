@@ -11,12 +11,12 @@ use std::time::Instant;
 
 use anyhow::Result;
 use glam::Vec3;
-use volphot::{Film, SceneParams};
+use volphot::{Film, Layer, SceneParams};
 
 pub(crate) use agreement::{Agreement, agreement, mse_against_noisy_reference};
 pub(crate) use columns::{METRIC_COLUMNS, MetricColumn, is_metric, metric_keys};
 pub(crate) use images::{
-    compare, disco, disco_excess, displayed, displayed_layers, flip_map, image_stats, luminance,
+    compare, disco, disco_excess, displayed, flip_map, image_stats, luminance,
 };
 
 use crate::store::{
@@ -70,13 +70,9 @@ pub(crate) fn compare_with_reference(
         reference.width(),
         reference.height()
     );
-    let ref_img = displayed(
-        &reference,
-        params.integrator.multiple,
-        params.integrator.emission,
-    );
-    let shown = displayed(film, params.integrator.multiple, params.integrator.emission);
-    let layers = displayed_layers(params.integrator.multiple, params.integrator.emission);
+    let layers = Layer::shown(params.integrator.multiple, params.integrator.emission);
+    let ref_img = reference.combine(&layers);
+    let shown = film.combine(&layers);
     let variance = reference.variance_of_sum(&layers);
     let mut m = compare(
         &shown,

@@ -3,9 +3,7 @@
 
 use anyhow::Result;
 use glam::Vec3;
-use volphot::{
-    Film, Layer, Method, MsEstimator, Provenance, Scene, SearchPath, SharedFilm, write_png,
-};
+use volphot::{Film, Layer, Provenance, Scene, SearchPath, SharedFilm, write_png};
 
 use super::Job;
 use super::scenes::Caches;
@@ -65,10 +63,7 @@ fn progressive_reference(jobs: &[(&Job, CellLock)], out: &OutputDir) -> Result<O
     let iterating: Vec<&Job> = jobs
         .iter()
         .map(|(j, _)| *j)
-        .filter(|j| {
-            let s = &j.spec.params.integrator;
-            s.method == Method::Photon && s.multiple && s.estimator != MsEstimator::Points
-        })
+        .filter(|j| j.spec.params.integrator.iterates())
         .collect();
     let Some(key) = iterating.first().and_then(|j| j.reference.clone()) else {
         return Ok(None);

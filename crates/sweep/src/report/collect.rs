@@ -1,6 +1,7 @@
 //! Collecting an output folder: every planned cell's record, errors against its reference
 //! (computed now when missing) and failure, read from disk alone.
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use anyhow::Result;
@@ -46,6 +47,8 @@ impl Collected {
 pub(crate) fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
     let plan = read_plan(out)?;
     let mut cells = Vec::new();
+    // Each reference's passes, read once (many cells share a reference).
+    let mut passes_of: HashMap<String, Option<u32>> = HashMap::new();
     for p in &plan.cells {
         let dir = out.cell(&p.hash);
         // The film is read only if something has to be recomputed from it, and then once.
@@ -63,9 +66,11 @@ pub(crate) fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
         };
         let mut reference = None;
         if let (Some(r), Some(key)) = (&record, &p.reference) {
-            let passes = read_reference_record(&out.reference(key))
-                .ok()
-                .map(|rec| rec.passes);
+            let passes = *passes_of.entry(key.clone()).or_insert_with(|| {
+                read_reference_record(&out.reference(key))
+                    .ok()
+                    .map(|rec| rec.passes)
+            });
             reference = read_reference_metrics(&dir, key, passes);
             if reference.is_none() && passes.is_some() {
                 let film = cell_film(&dir, &mut film)?;

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use volphot::{Method, MsEstimator, SceneParams};
+use volphot::SceneParams;
 
 use super::VERSION;
 
@@ -39,9 +39,7 @@ const ADDRESS_ALPHA: f32 = 4.0 / 7.0;
 /// finished cells nor re-rendered references (an α set explicitly is addressed as set).
 fn addressed(params: &SceneParams) -> SceneParams {
     let mut p = params.clone();
-    let s = &p.integrator;
-    let iterates = s.method == Method::Photon && s.multiple && s.estimator != MsEstimator::Points;
-    if !iterates && s.alpha == volphot::DEFAULT_ALPHA {
+    if !p.integrator.iterates() && p.integrator.alpha == volphot::DEFAULT_ALPHA {
         p.integrator.alpha = ADDRESS_ALPHA;
     }
     p
