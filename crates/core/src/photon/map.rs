@@ -224,8 +224,7 @@ impl PhotonMap {
                 within.min(v.nused as usize)
             };
             let r = if n == v.nused as usize {
-                let farthest = selected[..n].iter().map(|s| s.0).max().unwrap_or(0);
-                key_distance2(farthest).sqrt()
+                key_distance2(neighbours.farthest(n).0).sqrt()
             } else {
                 v.maxdist
             };

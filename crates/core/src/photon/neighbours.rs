@@ -67,6 +67,9 @@ pub(super) struct Neighbours {
     candidates: Candidates,
     d2: Vec<f32>,
     selected: Vec<(u64, u32)>,
+    /// Whether `selected` is sorted by key, and its largest entry when it holds `k`.
+    sorted: bool,
+    farthest: (u64, u32),
     /// The previous gather: point, `k`, `maxdist` and the distance of its `k`-th photon.
     previous: Option<(Vec3, usize, f32, f32)>,
 }
@@ -75,6 +78,17 @@ impl Neighbours {
     /// The photons of the last gather, `(key, candidate slot)`.
     pub(super) fn selected(&self) -> &[(u64, u32)] {
         &self.selected
+    }
+
+    /// The largest entry of `selected[..n]`, for `n` the whole selection of a full gather
+    /// (`k` photons) or any prefix of a sorted one.
+    pub(super) fn farthest(&self, n: usize) -> (u64, u32) {
+        if self.sorted {
+            self.selected[n - 1]
+        } else {
+            debug_assert_eq!(n, self.selected.len());
+            self.farthest
+        }
     }
 
     /// Selects the `k` nearest photons within `maxdist` of `p` (ties broken by photon
@@ -88,6 +102,7 @@ impl Neighbours {
         sorted: bool,
     ) {
         self.selected.clear();
+        self.sorted = sorted;
         if k == 0 || map.is_empty() {
             return;
         }
@@ -147,25 +162,35 @@ impl Neighbours {
         let reach = if self.selected.len() < k {
             maxdist
         } else {
-            if self.selected.len() > k {
+            // After the partial sort the `k`-th entry is the largest of the first `k`.
+            self.farthest = if self.selected.len() > k {
                 self.selected.select_nth_unstable_by_key(k - 1, |s| s.0);
                 self.selected.truncate(k);
-            }
-            let farthest = self.selected.iter().map(|s| s.0).max().unwrap_or(0);
-            key_distance2(farthest).sqrt()
+                self.selected[k - 1]
+            } else {
+                let largest = self.selected.iter().max_by_key(|s| s.0);
+                *largest.expect("k > 0 photons selected")
+            };
+            key_distance2(self.farthest.0).sqrt()
         };
         self.previous = (self.selected.len() == k).then_some((p, k, maxdist, reach));
         reach
     }
 
     /// The candidates within `sqrt(r2)`, as `(key, slot)`.
+    ///
+    /// Branch-free: every candidate is written and the end advances only past those
+    /// inside, because about half of them are, which a branch would mispredict.
     fn filter(&mut self, r2: f32) {
+        let n = self.d2.len();
         self.selected.clear();
+        self.selected.resize(n, (0, 0));
+        let mut end = 0;
         for (slot, (&d2, &photon)) in self.d2.iter().zip(&self.candidates.photons).enumerate() {
-            if d2 <= r2 {
-                self.selected.push((key(d2, photon), slot as u32));
-            }
+            self.selected[end.min(n - 1)] = (key(d2, photon), slot as u32);
+            end += usize::from(d2 <= r2);
         }
+        self.selected.truncate(end);
     }
 
     /// The fixed-point sum of the terms of `selected[..n]` (see [`FixedSum`]).
@@ -181,6 +206,7 @@ impl Neighbours {
         phase: Phase,
         wo: Vec3,
     ) -> Vec3 {
+        let left_out = (without_farthest && n > 0).then(|| self.farthest(n).1);
         let scale = FixedSum::scale(map.term_bound(gathered, phase));
         let terms = self.candidates.terms(map, gathered, phase, wo, scale);
         let mut sum = [0i64; 3];
@@ -190,8 +216,7 @@ impl Neighbours {
                 sum[a] = sum[a].saturating_add(t[a]);
             }
         }
-        if without_farthest && let Some(&(_, slot)) = self.selected[..n].iter().max_by_key(|s| s.0)
-        {
+        if let Some(slot) = left_out {
             let t = terms[slot as usize];
             for a in 0..3 {
                 sum[a] = sum[a].saturating_sub(t[a]);
