@@ -6,10 +6,12 @@
 //! * [`majorant`] bounds σt brick by brick and walks a ray's majorant segments;
 //! * [`free_path`] holds every tracker on one collision loop (delta, ratio, march, thesis);
 //! * [`march`] is the thesis's ray marching and marched optical depth;
-//! * [`optical_depth`] integrates σt exactly along a ray, cell by cell;
+//! * [`optical_depth`] integrates σt exactly along a ray, cell by cell, skipping the
+//!   cells [`empty_cells`] marks;
 //! * [`phase`] is the phase function.
 
 pub mod colour;
+mod empty_cells;
 mod free_path;
 mod majorant;
 mod march;
@@ -123,6 +125,8 @@ pub struct Medium {
     emission_colour: bool,
     phase: Phase,
     majorants: MajorantGrid,
+    /// Built on first use by the exact optical depth.
+    empty_cells: std::sync::OnceLock<empty_cells::EmptyCells>,
     report: SigmaReport,
     mapping: SigmaMapping,
     transfer: String,
@@ -181,6 +185,7 @@ impl Medium {
             emission_colour: settings.emission_colour,
             phase: settings.phase,
             majorants,
+            empty_cells: std::sync::OnceLock::new(),
             report,
             mapping: settings.mapping.clone(),
             transfer: settings.transfer.describe(),
@@ -305,6 +310,12 @@ impl Medium {
     /// The majorant bricks.
     pub fn majorants(&self) -> &MajorantGrid {
         &self.majorants
+    }
+
+    /// The density grid's empty cells (built on first use).
+    fn empty_cells(&self) -> &empty_cells::EmptyCells {
+        self.empty_cells
+            .get_or_init(|| empty_cells::EmptyCells::build(&self.density))
     }
 
     /// The σ mapping's outcome on this volume.

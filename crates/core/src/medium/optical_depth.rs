@@ -158,6 +158,7 @@ impl Medium {
         let values = grid.values();
         let last = dims.map(|n| n as i64 - 1);
         let mut sum = 0.0f32;
+        let empty = self.empty_cells();
         let mut f0 = grid.trilinear_clamped(ray.at(ta));
         for (t0, t1) in CellWalk::new(origin, direction, ta, tb) {
             let tm = 0.5 * (t0 + t1);
@@ -165,6 +166,12 @@ impl Medium {
             // The cell holding the midpoint; corner indices clamped as the reconstruction
             // clamps them (the outer half-voxel shell is constant).
             let cell = [floor_i64(cm.x), floor_i64(cm.y), floor_i64(cm.z)];
+            if empty.is_empty(cell) {
+                // Eight zero corners: f_m = f₁ = 0, and (f₀ + 4·0 + 0) is f₀ to the bit.
+                sum += (t1 - t0) * f0;
+                f0 = 0.0;
+                continue;
+            }
             let lo = [0, 1, 2].map(|a| cell[a].clamp(0, last[a]) as usize);
             let hi = [0, 1, 2].map(|a| (cell[a] + 1).clamp(0, last[a]) as usize);
             let at = |x: usize, y: usize, z: usize| values[x + dims[0] * (y + dims[1] * z)];
