@@ -124,7 +124,18 @@ impl Neighbours {
                 // A range query (k at least the photon count): every photon within a
                 // ball a little wider than `maxdist`.
                 1 if k >= map.len() => self.candidates.query_ball(map, p, maxdist * WIDE_RADIUS),
-                1 => self.candidates.query_wide(map, p, k, maxdist),
+                1 => match self.previous {
+                    // Near the last full gather its k photons lie within `reach + |p − q|`:
+                    // a ball a little wider than that holds the k nearest of `p`.
+                    Some((q, pk, pmax, r))
+                        if pk == k && pmax == maxdist && p.distance(q) < 0.5 * r =>
+                    {
+                        let bound = (r + p.distance(q)) * WIDE_RADIUS;
+                        self.candidates
+                            .query_ball(map, p, bound.min(maxdist * WIDE_RADIUS))
+                    }
+                    _ => self.candidates.query_wide(map, p, k, maxdist),
+                },
                 2 => self.candidates.query_ball(map, p, reach * (1.0 + 1e-3)),
                 _ => {}
             }
