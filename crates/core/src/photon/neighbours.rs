@@ -124,15 +124,12 @@ impl Neighbours {
                 // A range query (k at least the photon count): every photon within a
                 // ball a little wider than `maxdist`.
                 1 if k >= map.len() => self.candidates.query_ball(map, p, maxdist * WIDE_RADIUS),
-                1 => match self.previous {
-                    // Near the last full gather its k photons lie within `reach + |p − q|`:
-                    // a ball a little wider than that holds the k nearest of `p`.
-                    Some((q, pk, pmax, r))
-                        if pk == k && pmax == maxdist && p.distance(q) < 0.5 * r =>
-                    {
-                        let bound = (r + p.distance(q)) * WIDE_RADIUS;
-                        self.candidates
-                            .query_ball(map, p, bound.min(maxdist * WIDE_RADIUS))
+                // Near the last full gather, a ball a little wider than its bound holds the
+                // k nearest of `p`: a range query, cheaper than a best-n one.
+                1 => match self.since_previous(p, k, maxdist) {
+                    Some((r, moved)) if moved < 0.5 * r => {
+                        let radius = ((r + moved) * WIDE_RADIUS).min(maxdist * WIDE_RADIUS);
+                        self.candidates.query_ball(map, p, radius)
                     }
                     _ => self.candidates.query_wide(map, p, k, maxdist),
                 },
@@ -152,18 +149,29 @@ impl Neighbours {
         }
     }
 
+    /// The previous full gather's reach and the distance from its point to `p`, when it
+    /// asked for the same `k` and `maxdist`: its `k` photons lie within `reach + moved` of
+    /// `p` (triangle inequality), so the `k` nearest of `p` do too.
+    fn since_previous(&self, p: Vec3, k: usize, maxdist: f32) -> Option<(f32, f32)> {
+        match self.previous {
+            Some((q, pk, pmax, reach)) if pk == k && pmax == maxdist => {
+                Some((reach, p.distance(q)))
+            }
+            _ => None,
+        }
+    }
+
     /// The `k` nearest candidates within `maxdist` of `p` into `selected` (unsorted);
     /// returns their reach: the `k`-th distance, or `maxdist` when fewer were found.
     fn select(&mut self, p: Vec3, k: usize, maxdist: f32) -> f32 {
         let r2_max = maxdist * maxdist;
-        // The previous gather's k photons lie within `reach + |p − point|` of `p`, so the k
-        // nearest of `p` do too: a tighter filter, the same answer.
-        let r2_bound = match self.previous {
-            Some((q, pk, pmax, reach)) if pk == k && pmax == maxdist => {
-                let bound = (reach + p.distance(q)) * (1.0 + 1e-5) + 1e-7;
+        // A tighter filter from the previous gather, the same answer.
+        let r2_bound = match self.since_previous(p, k, maxdist) {
+            Some((reach, moved)) => {
+                let bound = (reach + moved) * (1.0 + 1e-5) + 1e-7;
                 (bound * bound).min(r2_max)
             }
-            _ => r2_max,
+            None => r2_max,
         };
         self.candidates.distances2(p, &mut self.d2);
         self.filter(r2_bound);
