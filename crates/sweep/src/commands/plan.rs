@@ -1,44 +1,117 @@
 //! `sweep plan`: the cells of an experiment and a rough cost estimate.
 
+use std::collections::{HashMap, HashSet};
 use std::process::ExitCode;
 
 use anyhow::Result;
-use volphot::{Method, SceneParams};
+use volphot::{Method, MsEstimator, SceneParams, ShadowEstimator};
 
 use crate::cli::PlanArgs;
-use crate::plan::Experiment;
+use crate::plan::{CellSpec, Experiment, reference_params};
 
-/// Rough wall-clock seconds for one cell on a 2-core machine.
-///
-/// Calibrated on the foot preset (σt(d_min) = 80, three spot lights, stepsize 0.0005):
-/// about 100 µs per eye ray and light for single scattering and 160 µs per eye ray for
-/// multiple scattering at nused = 150; both scale with the number of marching steps
-/// (1/stepsize). Reference paths cost about 40 µs per sample. Real volumes and σ vary this
-/// by a factor of a few: the estimate orders plans, it does not promise times.
-pub(crate) fn estimate_seconds(p: &SceneParams) -> f64 {
+/// Wall-clock seconds on 2 cores, measured on the thesis's headline scene (real foot 256³,
+/// σt(d_min) 80, three spot lights, 512²) in the `--paper` runs of `cost/` and `stepsize/`
+/// (2026-12-02): the per-pixel costs at stepsize 0.0005, which scale with the number of
+/// eye samples (1/stepsize) — marched shadow rays with its square.
+mod calibration {
+    /// Single scattering with the exact shadow integral, per pixel and light.
+    pub(super) const SINGLE_EXACT: f64 = 2.3e-6;
+    /// Single scattering with marched shadow rays (§6), per pixel and light.
+    pub(super) const SINGLE_MARCHED: f64 = 48e-6;
+    /// Multiple scattering, per pixel: a fixed part and a part per photon gathered.
+    pub(super) const MULTIPLE: f64 = 15.4e-6;
+    /// Multiple scattering, per pixel and photon of `nused`.
+    pub(super) const MULTIPLE_PER_NUSED: f64 = 0.068e-6;
+    /// One path-traced sample of a reference.
+    pub(super) const REFERENCE_SAMPLE: f64 = 1.0e-6;
+    /// A cell's wall time beyond its render, per pixel: saving the film and its images,
+    /// the metrics, its share of the report (the runs' wall time less their render times).
+    pub(super) const RECORD: f64 = 19e-6;
+    /// Tracing one photon and storing it.
+    pub(super) const PHOTON: f64 = 1.0e-6;
+    /// Cached transmittance and multiple scattering against the exact integrator
+    /// (`sweep bench`: 3.84 s cached, 15.35 s exact).
+    pub(super) const CACHED: f64 = 0.25;
+}
+
+/// Rough wall-clock cost of one cell on 2 cores, split into the part cells sharing a march
+/// pay once (eye rays and single scattering) and the part every cell pays (its photon map
+/// and its gathers). Real volumes and σ move it by a factor of a few (an opaque volume
+/// stops eye rays early, a transparent one lets them run through): the estimate orders
+/// plans, it does not promise times.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct CellCost {
+    /// Seconds shared by the cells of one march group.
+    pub(crate) march: f64,
+    /// Seconds of this cell's own.
+    pub(crate) own: f64,
+}
+
+impl CellCost {
+    /// The cell rendered alone.
+    pub(crate) fn alone(&self) -> f64 {
+        self.march + self.own
+    }
+}
+
+/// The estimated cost of one cell (see [`CellCost`]).
+pub(crate) fn estimate_cost(p: &SceneParams) -> CellCost {
+    use calibration::*;
     let [w, h] = p.camera.resolution;
-    let pixels = w as f64 * h as f64;
     let i = &p.integrator;
+    let pixels = w as f64 * h as f64;
+    if i.method == Method::Reference {
+        return CellCost {
+            march: 0.0,
+            own: pixels * i.reference_spp as f64 * REFERENCE_SAMPLE,
+        };
+    }
+    let eye_rays = pixels * i.spp.max(1) as f64;
     let steps = 0.0005 / i.stepsize as f64;
     let lights = (p.lights.len() + if p.three_point.is_some() { 3 } else { 0 }).max(1) as f64;
-    match i.method {
-        Method::Reference => pixels * i.reference_spp as f64 * 40e-6,
-        Method::Photon => {
-            let single = if i.single { 100e-6 * lights } else { 0.0 };
-            let multiple = if i.multiple {
-                160e-6 * (i.nused as f64 / 150.0).sqrt()
-            } else {
-                0.0
-            };
-            let cache = if i.shadow_cache > 0 || i.ms_cache > 0 {
-                0.25
-            } else {
-                1.0
-            };
-            pixels * i.spp as f64 * steps * (single + multiple) * cache
-                + i.volume_photons as f64 * 2e-6
+    let cache = |cached: bool| if cached { CACHED } else { 1.0 };
+    let single = match (i.single, i.shadow) {
+        (false, _) => 0.0,
+        (true, ShadowEstimator::March) => SINGLE_MARCHED * steps * steps,
+        (true, _) => SINGLE_EXACT * steps,
+    } * eye_rays
+        * lights
+        * cache(i.shadow_cache > 0);
+    let multiple = if i.multiple {
+        (MULTIPLE + MULTIPLE_PER_NUSED * i.nused as f64) * steps * eye_rays * cache(i.ms_cache > 0)
+    } else {
+        0.0
+    };
+    let tracing = i.volume_photons as f64 * PHOTON;
+    let record = pixels * RECORD;
+    match i.estimator {
+        MsEstimator::Points => CellCost {
+            march: single,
+            own: multiple + tracing + record,
+        },
+        // Progressive and beam renders march once per photon set, alone.
+        MsEstimator::Progressive | MsEstimator::Beam => CellCost {
+            march: 0.0,
+            own: i.iterations.max(1) as f64 * (single + multiple + tracing) + record,
+        },
+    }
+}
+
+/// The estimated seconds of the experiment's references (each distinct one once) and
+/// their number.
+fn reference_seconds(exp: &Experiment, cells: &[CellSpec]) -> Result<(f64, usize)> {
+    let Some(spec) = &exp.reference else {
+        return Ok((0.0, 0));
+    };
+    let mut seen = HashSet::new();
+    let mut seconds = 0.0;
+    for c in cells {
+        let p = reference_params(&c.params, spec)?;
+        if seen.insert(serde_json::to_string(&p)?) {
+            seconds += estimate_cost(&p).alone();
         }
     }
+    Ok((seconds, seen.len()))
 }
 
 /// Prints the plan.
@@ -70,23 +143,40 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
         cells.len()
     );
     println!("{:>5}  {:<16}  {:>9}  cell", "index", "hash", "est. [s]");
-    let mut total = 0.0;
-    let mut marches = std::collections::HashSet::new();
+    let mut alone = 0.0;
+    let mut own = 0.0;
+    // The most any cell of a march group spends on the march it shares.
+    let mut marches: HashMap<String, f64> = HashMap::new();
     for (c, hash) in cells.iter().zip(&hashes) {
-        let est = estimate_seconds(&c.params);
-        // Cells sharing a march cost roughly one march plus their gathers.
-        marches.insert(if exp.share {
+        let cost = estimate_cost(&c.params);
+        let key = if exp.share {
             volphot::march_key(&c.params)
         } else {
             hash.clone()
-        });
-        total += est;
-        println!("{:>5}  {:<16}  {:>9.1}  {}", c.index, hash, est, c.label());
+        };
+        let march = marches.entry(key).or_default();
+        *march = march.max(cost.march);
+        alone += cost.alone();
+        own += cost.own;
+        println!(
+            "{:>5}  {:<16}  {:>9.1}  {}",
+            c.index,
+            hash,
+            cost.alone(),
+            c.label()
+        );
     }
+    let references = reference_seconds(&exp, &cells)?;
+    let shared = own + marches.values().sum::<f64>();
     println!(
-        "estimated {:.0} s of rendering if every cell were rendered alone (rough, 2 cores); the cells form {} march group(s) that share eye rays. Planned in {:.3} s.",
-        total,
+        "estimated {:.0} s of rendering on 2 cores ({:.1} h): {:.0} s for the cells in {} march group(s) that share eye rays ({:.0} s if each were rendered alone) and {:.0} s for {} reference(s). Rough: calibrated on the foot at σt 80, off by a factor of a few elsewhere. Planned in {:.3} s.",
+        shared + references.0,
+        (shared + references.0) / 3600.0,
+        shared,
         marches.len(),
+        alone,
+        references.0,
+        references.1,
         plan_seconds
     );
     if cells.len() > exp.max_cells {
@@ -109,4 +199,66 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
         println!("\n{}", script.describe());
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene() -> SceneParams {
+        let mut p: SceneParams = toml::from_str(volphot::test_util::SMALL_SCENE).unwrap();
+        p.camera.resolution = [512, 512];
+        p.integrator.stepsize = 0.0005;
+        p.integrator.single = true;
+        p.integrator.multiple = true;
+        p.integrator.volume_photons = 0;
+        p
+    }
+
+    /// The frame's part of a cost: without the cell's record, which does not scale with
+    /// the step, the caches or the lights (the scenes trace no photons).
+    fn frame(p: &SceneParams) -> f64 {
+        let [w, h] = p.camera.resolution;
+        estimate_cost(p).alone() - (w * h) as f64 * calibration::RECORD
+    }
+
+    #[test]
+    fn marched_shadows_grow_with_the_square_of_the_step_count() {
+        let mut p = scene();
+        p.integrator.multiple = false;
+        let cost = frame;
+        p.integrator.shadow = ShadowEstimator::Exact;
+        let exact = cost(&p);
+        p.integrator.stepsize = 0.00025;
+        assert!((cost(&p) / exact - 2.0).abs() < 1e-9);
+        p.integrator.shadow = ShadowEstimator::March;
+        let fine = cost(&p);
+        p.integrator.stepsize = 0.0005;
+        assert!((fine / cost(&p) - 4.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_shared_march_is_paid_once_and_caches_and_iterations_scale_the_cost() {
+        let p = scene();
+        let points = estimate_cost(&p);
+        assert!(points.march > 0.0 && points.own > 0.0);
+        let mut more = p.clone();
+        more.integrator.nused = 300;
+        let wider = estimate_cost(&more);
+        assert_eq!(wider.march, points.march, "nused does not change the march");
+        assert!(wider.own > points.own);
+        let mut cached = p.clone();
+        cached.integrator.shadow_cache = 64;
+        cached.integrator.ms_cache = 64;
+        assert!((frame(&cached) / frame(&p) - 0.25).abs() < 1e-9);
+        let mut progressive = p.clone();
+        progressive.integrator.estimator = MsEstimator::Progressive;
+        progressive.integrator.iterations = 16;
+        assert_eq!(
+            estimate_cost(&progressive).march,
+            0.0,
+            "each iteration marches alone"
+        );
+        assert!((frame(&progressive) / frame(&p) - 16.0).abs() < 1e-9);
+    }
 }
