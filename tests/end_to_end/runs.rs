@@ -387,6 +387,54 @@ fn cached_cells_record_and_report_their_measured_error() {
 }
 
 #[test]
+fn the_report_counts_the_marches_rendered_and_reruns_at_its_quality() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (share, marches) in [("false", 2), ("true", 1)] {
+        let name = format!("share-{share}");
+        let exp = write_experiment(
+            tmp.path(),
+            &name,
+            "phantom-engine.toml",
+            &format!(
+                r#"share = {share}
+[set]
+"volume.phantom.resolution" = [32, 32, 32]
+"integrator.volume_photons" = 2000
+"integrator.stepsize" = 0.004
+[axes]
+"integrator.nused" = [25, 50]
+"#
+            ),
+        );
+        let out = tmp.path().join(&name);
+        run_ok(
+            sweep()
+                .arg("run")
+                .arg(&exp)
+                .arg("--quick")
+                .arg("--output")
+                .arg(&out),
+        );
+        let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+        // The cells share a march key either way; only `share = true` renders them in one.
+        assert!(
+            report.contains(&format!(
+                "2 finished cells came from about {marches} march(es)"
+            )),
+            "{report}"
+        );
+        assert!(
+            report.contains(&format!(
+                "{} --quick --output {}",
+                exp.display(),
+                out.display()
+            )),
+            "{report}"
+        );
+    }
+}
+
+#[test]
 fn real_dataset_grid_records_checksums() {
     let Some(data) = data_dir() else {
         skip(

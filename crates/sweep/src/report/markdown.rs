@@ -110,13 +110,19 @@ impl Report<'_> {
         }
         let _ = writeln!(
             s,
-            "- rerun: `sweep {} {} --output {}` (finished cells are skipped); regenerate this report: `sweep report {}`\n",
+            "- rerun: `sweep {} {}{} --output {}` (finished cells are skipped); regenerate this report: `sweep report {}`\n",
             if self.experiment.tune.is_some() {
                 "tune"
             } else {
                 "run"
             },
             plan.experiment_file.display(),
+            // The quality changes the cells: a rerun without it would plan other ones.
+            match plan.quality.as_str() {
+                "paper" => " --paper",
+                "quick" => " --quick",
+                _ => "",
+            },
             root.display(),
             root.display()
         );
@@ -133,11 +139,14 @@ impl Report<'_> {
                 .collect();
             let _ = writeln!(s, "- `{axis}`: {}", values.join(", "));
         }
-        let marches: std::collections::HashSet<&String> = cells
+        // What the renders did, not what the plan allowed: an experiment with
+        // `share = false` marches every cell alone though its cells share march keys.
+        let marches = cells
             .iter()
-            .filter(|c| c.record.is_some())
-            .map(|c| &c.planned.march_key)
-            .collect();
+            .filter_map(|c| c.record.as_ref())
+            .map(|r| 1.0 / r.timings.march_shared_by.max(1) as f64)
+            .sum::<f64>()
+            .round() as usize;
         let with_maps = || {
             cells
                 .iter()
@@ -150,8 +159,7 @@ impl Report<'_> {
             .round() as usize;
         let _ = writeln!(
             s,
-            "\nShared work: {done} finished cells came from {} march(es) (one eye-ray pass each) and about {maps} photon map(s) for the {} cells with multiple scattering; rendered one by one they would need {done} marches and {} maps.\n",
-            marches.len(),
+            "\nShared work: {done} finished cells came from about {marches} march(es) (one eye-ray pass each) and about {maps} photon map(s) for the {} cells with multiple scattering; rendered one by one they would need {done} marches and {} maps.\n",
             with_maps().count(),
             with_maps().count(),
             done = self.done(),
