@@ -2,7 +2,7 @@
 # Regenerates every committed study under reports/ (see reports/REPRODUCTION.md):
 #
 #   scripts/reproduce.sh            # default quality (about an hour on 2 cores)
-#   scripts/reproduce.sh --paper    # thesis resolution and the full grids (about 6 h on 2 cores:
+#   scripts/reproduce.sh --paper    # thesis resolution and the full grids (about 4.6 h on 2 cores:
 #                                   # nine studies measured at 1 h 44 min, consistency and
 #                                   # artifacts estimated by `sweep plan --paper`)
 #
