@@ -260,11 +260,7 @@ impl Scripts<'_> {
         quality: Quality,
         options: &SlurmOptions,
     ) -> String {
-        let quality_flag = match quality {
-            Quality::Quick => " --quick",
-            Quality::Paper => " --paper",
-            Quality::Default => "",
-        };
+        let quality_flag = quality.flag();
         let mut threads = options
             .cpus_per_task
             .map(|c| format!(" --threads {c}"))

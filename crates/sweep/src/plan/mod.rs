@@ -99,6 +99,23 @@ impl Quality {
             Quality::Paper => "paper",
         }
     }
+
+    /// The quality `name` names (as recorded in `plan.json`).
+    pub(crate) fn from_name(name: &str) -> Option<Quality> {
+        [Quality::Quick, Quality::Default, Quality::Paper]
+            .into_iter()
+            .find(|q| q.name() == name)
+    }
+
+    /// The command-line flag that selects this quality, with a leading space (none for
+    /// the default): the cells differ by quality, so a rerun must repeat it.
+    pub(crate) fn flag(self) -> &'static str {
+        match self {
+            Quality::Quick => " --quick",
+            Quality::Default => "",
+            Quality::Paper => " --paper",
+        }
+    }
 }
 
 #[derive(Debug, Clone)]

@@ -8,7 +8,7 @@ use super::Figures;
 use super::collect::{Collected, distinct_values, value_label};
 use super::table::{Exporter, Field, MarkdownExporter, Table};
 use crate::analyse::METRIC_COLUMNS;
-use crate::plan::Experiment;
+use crate::plan::{Experiment, Quality};
 use crate::store::{OutputDir, PlanRecord, read_reference_record};
 
 /// The metrics shown in the report's cells table (when any cell has them).
@@ -117,12 +117,7 @@ impl Report<'_> {
                 "run"
             },
             plan.experiment_file.display(),
-            // The quality changes the cells: a rerun without it would plan other ones.
-            match plan.quality.as_str() {
-                "paper" => " --paper",
-                "quick" => " --quick",
-                _ => "",
-            },
+            Quality::from_name(&plan.quality).map_or("", Quality::flag),
             root.display(),
             root.display()
         );
