@@ -33,6 +33,10 @@ mod calibration {
     /// A progressive iteration's fixed-radius gathers against the k-NN gathers of the same
     /// nused (`alpha/` at 512²: 64 iterations in 61–129 s a cell).
     pub(super) const PROGRESSIVE_GATHER: f64 = 0.54;
+    /// One beam-estimate pass, per pixel: the eye march and the photon spheres it crosses
+    /// (`consistency/` at 512², 40 000 photons: 16 maps cost 0.21–0.57 s a map more than
+    /// one, 0.42 s at the median on the foot and engine).
+    pub(super) const BEAM_PASS: f64 = 1.6e-6;
     /// Tracing one photon and storing it.
     pub(super) const PHOTON: f64 = 1.0e-6;
     /// Cached transmittance and multiple scattering against the exact integrator
@@ -96,12 +100,12 @@ pub(crate) fn estimate_cost(p: &SceneParams) -> CellCost {
             own: multiple + tracing + record,
         },
         // Progressive and beam renders march alone: single scattering in the first
-        // pass, then one multiple-scattering pass per photon set. The beam estimate is
-        // not calibrated; it is charged like the point estimate.
+        // pass, then one multiple-scattering pass per photon set.
         MsEstimator::Progressive | MsEstimator::Beam => {
-            let pass = match i.estimator {
-                MsEstimator::Progressive => multiple * PROGRESSIVE_GATHER,
-                _ => multiple,
+            let pass = match (i.estimator, i.multiple) {
+                (_, false) => 0.0,
+                (MsEstimator::Progressive, true) => multiple * PROGRESSIVE_GATHER,
+                (_, true) => BEAM_PASS * steps * eye_rays,
             };
             CellCost {
                 march: 0.0,
@@ -278,5 +282,13 @@ mod tests {
         let expected =
             points.march + 16.0 * calibration::PROGRESSIVE_GATHER * (points.own - record);
         assert!((frame(&progressive) / expected - 1.0).abs() < 1e-9);
+        // A beam pass walks the photons' spheres instead of gathering: far cheaper, and
+        // independent of nused.
+        let mut beams = progressive.clone();
+        beams.integrator.estimator = MsEstimator::Beam;
+        let beam_cost = frame(&beams);
+        assert!(beam_cost > points.march && beam_cost < frame(&progressive));
+        beams.integrator.nused = 300;
+        assert_eq!(frame(&beams), beam_cost);
     }
 }
