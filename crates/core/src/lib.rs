@@ -75,8 +75,9 @@ pub use film::{
 };
 pub use integrator::{
     CACHE_TAU_MAX, CacheError, ErrorBound, MAX_VERTICES, MarchOutput, MarchStats, MsVariant,
-    ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, StopReason, next_radius,
-    progress_rows, render_march, render_march_beams, render_progressive, render_reference,
+    ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, StopReason, eye_samples_per_ray,
+    next_radius, progress_rows, render_march, render_march_beams, render_progressive,
+    render_reference,
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
 pub use medium::{

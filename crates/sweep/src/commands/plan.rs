@@ -4,17 +4,23 @@ use std::collections::{HashMap, HashSet};
 use std::process::ExitCode;
 
 use anyhow::Result;
-use volphot::{Method, MsEstimator, SceneParams, ShadowEstimator};
+use volphot::{Method, MsEstimator, SceneParams, SearchPath, ShadowEstimator, eye_samples_per_ray};
 
 use crate::cli::PlanArgs;
 use crate::plan::{CellSpec, Experiment, reference_params};
+use crate::render::Caches;
 
 /// Wall-clock seconds on 2 cores, measured on the thesis's headline scene (real foot 256³,
 /// σt(d_min) 80, three spot lights, 512²) in the `--paper` runs of `cost/` and `stepsize/`
 /// (2026-12-02; `reports/REPRODUCTION.md`, "At the thesis's resolution"): the per-pixel
-/// costs at stepsize 0.0005, which scale with the number of eye samples (1/stepsize) —
-/// marched shadow rays with its square.
+/// costs at stepsize 0.0005. They scale with the eye march's length in samples, probed on
+/// each scene before planning (a dense medium stops the march early, a thin one lets it
+/// cross the volume: `consistency --paper` took 0.36× the unprobed estimate at σt 290 and
+/// 5.8× on the head at σt 6); marched shadow rays also grow with 1/stepsize.
 mod calibration {
+    /// Eye-march samples per ray on that frame (`volphot::eye_samples_per_ray`, 32 × 32
+    /// rays): the costs below are per pixel at this march length.
+    pub(super) const SAMPLES_PER_RAY: f64 = 28.1;
     /// Single scattering with the exact shadow integral, per pixel and light (single +
     /// multiple at nused 150 took 14.6 s, multiple alone 7.6 s, with three lights).
     pub(super) const SINGLE_EXACT: f64 = 8.9e-6;
@@ -64,8 +70,9 @@ impl CellCost {
     }
 }
 
-/// The estimated cost of one cell (see [`CellCost`]).
-pub(crate) fn estimate_cost(p: &SceneParams) -> CellCost {
+/// The estimated cost of one cell (see [`CellCost`]), given the scene's eye-march samples
+/// per ray when it could be probed (else the calibration frame's, scaled by the step).
+pub(crate) fn estimate_cost(p: &SceneParams, samples_per_ray: Option<f64>) -> CellCost {
     use calibration::*;
     let [w, h] = p.camera.resolution;
     let i = &p.integrator;
@@ -78,17 +85,21 @@ pub(crate) fn estimate_cost(p: &SceneParams) -> CellCost {
     }
     let eye_rays = pixels * i.spp.max(1) as f64;
     let steps = 0.0005 / i.stepsize as f64;
+    let march_length = samples_per_ray.map_or(steps, |s| s / SAMPLES_PER_RAY);
     let lights = (p.lights.len() + if p.three_point.is_some() { 3 } else { 0 }).max(1) as f64;
     let cache = |cached: bool| if cached { CACHED } else { 1.0 };
     let single = match (i.single, i.shadow) {
         (false, _) => 0.0,
-        (true, ShadowEstimator::March) => SINGLE_MARCHED * steps * steps,
-        (true, _) => SINGLE_EXACT * steps,
+        (true, ShadowEstimator::March) => SINGLE_MARCHED * march_length * steps,
+        (true, _) => SINGLE_EXACT * march_length,
     } * eye_rays
         * lights
         * cache(i.shadow_cache > 0);
     let multiple = if i.multiple {
-        (MULTIPLE + MULTIPLE_PER_NUSED * i.nused as f64) * steps * eye_rays * cache(i.ms_cache > 0)
+        (MULTIPLE + MULTIPLE_PER_NUSED * i.nused as f64)
+            * march_length
+            * eye_rays
+            * cache(i.ms_cache > 0)
     } else {
         0.0
     };
@@ -105,12 +116,68 @@ pub(crate) fn estimate_cost(p: &SceneParams) -> CellCost {
             let pass = match (i.estimator, i.multiple) {
                 (_, false) => 0.0,
                 (MsEstimator::Progressive, true) => multiple * PROGRESSIVE_GATHER,
-                (_, true) => BEAM_PASS * steps * eye_rays,
+                (_, true) => BEAM_PASS * march_length * eye_rays,
             };
             CellCost {
                 march: 0.0,
                 own: single + i.iterations.max(1) as f64 * (pass + tracing) + record,
             }
+        }
+    }
+}
+
+/// Eye-march samples per ray of each distinct scene, probed once (`eye_samples_per_ray`
+/// on 32 × 32 rays); `None` where the scene cannot be loaded here (a dataset not on this
+/// machine), which the estimate then takes as the calibration frame's.
+#[derive(Default)]
+struct Probes {
+    caches: Caches,
+    samples: HashMap<String, Option<f64>>,
+    seconds: f64,
+}
+
+impl Probes {
+    /// Rays per side of the probe grid.
+    const RAYS: u32 = 32;
+
+    fn samples_per_ray(&mut self, cell: &CellSpec) -> Option<f64> {
+        let p = &cell.params;
+        // What decides the march: the medium, the view and the step.
+        let key = serde_json::to_string(&(
+            &p.volume,
+            &p.transfer,
+            &p.sigma,
+            &p.camera,
+            p.integrator.stepsize,
+            p.integrator.termination,
+            &cell.base_dir,
+        ))
+        .ok()?;
+        if let Some(known) = self.samples.get(&key) {
+            return *known;
+        }
+        let start = std::time::Instant::now();
+        let probed = self
+            .caches
+            .scene(p, &cell.base_dir, &SearchPath::from_env())
+            .ok()
+            .map(|scene| eye_samples_per_ray(&scene, Self::RAYS));
+        self.seconds += start.elapsed().as_secs_f64();
+        self.samples.insert(key, probed);
+        probed
+    }
+
+    /// How the estimate was scaled, for the summary line.
+    fn summary(&self) -> String {
+        let missing = self.samples.values().filter(|s| s.is_none()).count();
+        let total = self.samples.len();
+        if missing == 0 {
+            format!("the eye-march length probed on each of its {total} scene(s)")
+        } else {
+            format!(
+                "the eye-march length probed on {} of its {total} scene(s) (the other {missing} could not be loaded here and count as the foot at σt 80)",
+                total - missing
+            )
         }
     }
 }
@@ -126,7 +193,7 @@ fn reference_seconds(exp: &Experiment, cells: &[CellSpec]) -> Result<(f64, usize
     for c in cells {
         let p = reference_params(&c.params, spec)?;
         if seen.insert(serde_json::to_string(&p)?) {
-            seconds += estimate_cost(&p).alone();
+            seconds += estimate_cost(&p, None).alone();
         }
     }
     Ok((seconds, seen.len()))
@@ -165,8 +232,9 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
     let mut own = 0.0;
     // The most any cell of a march group spends on the march it shares.
     let mut marches: HashMap<String, f64> = HashMap::new();
+    let mut probes = Probes::default();
     for (c, hash) in cells.iter().zip(&hashes) {
-        let cost = estimate_cost(&c.params);
+        let cost = estimate_cost(&c.params, probes.samples_per_ray(c));
         let key = if exp.share {
             volphot::march_key(&c.params)
         } else {
@@ -187,7 +255,7 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
     let references = reference_seconds(&exp, &cells)?;
     let shared = own + marches.values().sum::<f64>();
     println!(
-        "estimated {:.0} s of rendering on 2 cores ({:.1} h): {:.0} s for the cells in {} march group(s) that share eye rays ({:.0} s if each were rendered alone) and {:.0} s for {} reference(s). Rough: calibrated on the foot at σt 80, off by a factor of a few elsewhere. Planned in {:.3} s.",
+        "estimated {:.0} s of rendering on 2 cores ({:.1} h): {:.0} s for the cells in {} march group(s) that share eye rays ({:.0} s if each were rendered alone) and {:.0} s for {} reference(s). Rough: calibrated on the foot at σt 80 and scaled by {}. Planned in {:.3} s.",
         shared + references.0,
         (shared + references.0) / 3600.0,
         shared,
@@ -195,7 +263,8 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
         alone,
         references.0,
         references.1,
-        plan_seconds
+        probes.summary(),
+        plan_seconds + probes.seconds
     );
     if cells.len() > exp.max_cells {
         println!(
@@ -237,7 +306,26 @@ mod tests {
     /// the step, the caches or the lights (the scenes trace no photons).
     fn frame(p: &SceneParams) -> f64 {
         let [w, h] = p.camera.resolution;
-        estimate_cost(p).alone() - (w * h) as f64 * calibration::RECORD
+        estimate_cost(p, None).alone() - (w * h) as f64 * calibration::RECORD
+    }
+
+    #[test]
+    fn a_probed_march_length_scales_the_marching_costs_and_nothing_else() {
+        let p = scene();
+        let [w, h] = p.camera.resolution;
+        let fixed = (w * h) as f64 * calibration::RECORD
+            + p.integrator.volume_photons as f64 * calibration::PHOTON;
+        let at = |samples: f64| estimate_cost(&p, Some(samples));
+        let base = at(calibration::SAMPLES_PER_RAY);
+        let unprobed = estimate_cost(&p, None);
+        assert!(
+            (base.alone() / unprobed.alone() - 1.0).abs() < 1e-6,
+            "the calibration frame's own length"
+        );
+        // A medium whose rays take 3× the samples (a thin one, crossed end to end).
+        let thin = at(3.0 * calibration::SAMPLES_PER_RAY);
+        assert!((thin.march / base.march - 3.0).abs() < 1e-9);
+        assert!(((thin.own - fixed) / (base.own - fixed) - 3.0).abs() < 1e-9);
     }
 
     #[test]
@@ -258,11 +346,11 @@ mod tests {
     #[test]
     fn a_shared_march_is_paid_once_and_caches_and_iterations_scale_the_cost() {
         let p = scene();
-        let points = estimate_cost(&p);
+        let points = estimate_cost(&p, None);
         assert!(points.march > 0.0 && points.own > 0.0);
         let mut more = p.clone();
         more.integrator.nused = 300;
-        let wider = estimate_cost(&more);
+        let wider = estimate_cost(&more, None);
         assert_eq!(wider.march, points.march, "nused does not change the march");
         assert!(wider.own > points.own);
         let mut cached = p.clone();
@@ -273,7 +361,7 @@ mod tests {
         progressive.integrator.estimator = MsEstimator::Progressive;
         progressive.integrator.iterations = 16;
         assert_eq!(
-            estimate_cost(&progressive).march,
+            estimate_cost(&progressive, None).march,
             0.0,
             "each iteration marches alone"
         );

@@ -26,7 +26,7 @@ use volphot::{Method, SearchPath};
 pub(crate) use group::{FAIL_CELLS_ENV, PANIC_CELLS_ENV};
 use group::{GroupContext, GroupOutcome, render_group};
 use reference::{ReferenceJob, ensure_reference};
-use scenes::Caches;
+pub(crate) use scenes::Caches;
 
 use crate::plan::{CellSpec, Experiment, toml_to_json};
 use crate::store::{CellState, OutputDir, PlanRecord, cell_state, clean_stale, hostname};

@@ -1,0 +1,107 @@
+//! How much marching an image will take, measured before rendering it.
+//!
+//! The marching integrator's cost grows with its samples: each sample with σt > 0 is shaded
+//! for every light and gathered once (§6). How many samples an eye ray takes depends on the
+//! volume, the transfer function and σt: a dense medium stops the march early at
+//! `termination`, a thin one lets it cross the whole volume. Counting them on a coarse grid
+//! of eye rays is cheap (no shading, no photons) and gives a planner the scene's own scale.
+
+use super::march::{Accumulator, Marcher};
+use crate::math::{Domain, Rng};
+use crate::scene::Scene;
+
+/// The mean number of marching samples (σt > 0) per eye ray, over `rays` × `rays` eye rays
+/// spread evenly over the image, each at a pixel's centre. Deterministic: the rays and each
+/// ray's random offset depend only on the scene's seed.
+///
+/// ```
+/// use std::path::Path;
+/// use volphot::{Scene, SceneParams, SearchPath, eye_samples_per_ray};
+/// let src = "[volume]\nphantom = { name = \"sphere\", resolution = [16, 16, 16] }\n[three_point]\n";
+/// let params = SceneParams::from_toml(src, Path::new("sphere.toml")).unwrap();
+/// let scene = Scene::from_params(&params, Path::new("."), &SearchPath::new(vec![])).unwrap();
+/// let samples = eye_samples_per_ray(&scene, 8);
+/// assert!(samples > 0.0);
+/// assert_eq!(samples, eye_samples_per_ray(&scene, 8));
+/// ```
+pub fn eye_samples_per_ray(scene: &Scene, rays: u32) -> f64 {
+    let settings = scene.integrator();
+    let marcher = Marcher {
+        medium: scene.medium(),
+        lights: scene.lights(),
+        settings,
+        variants: &[],
+        groups: Vec::new(),
+        beams: None,
+        shadow_caches: None,
+        shadow_tau_max: f32::INFINITY,
+    };
+    let camera = scene.camera();
+    let (width, height) = (camera.width() as f32, camera.height() as f32);
+    let rays = rays.max(1);
+    let mut acc = Accumulator::new(0, 0, 0);
+    let mut total = 0u64;
+    for j in 0..rays {
+        for i in 0..rays {
+            let (x, y) = (
+                (i as f32 + 0.5) / rays as f32 * width,
+                (j as f32 + 0.5) / rays as f32 * height,
+            );
+            let ray = camera.ray(x, y);
+            let mut rng = Rng::stream2(settings.seed, Domain::Pixels, (j * rays + i) as u64, 0);
+            marcher.collect_samples(&ray, &mut rng, &mut acc);
+            total += acc.samples.len() as u64;
+        }
+    }
+    total as f64 / (rays as f64 * rays as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util;
+
+    /// A constant medium seen head-on through the unit box: the rays cross it in length 1.
+    fn constant_box(t: f32, stepsize: f32) -> Scene {
+        test_util::scene(&format!(
+            r#"
+[volume]
+phantom = {{ name = "constant", resolution = [8, 8, 8] }}
+[sigma]
+mapping = "thesis"
+t = {t}
+[camera]
+eye = [0.5, -2.0, 0.5]
+look_at = [0.5, 0.5, 0.5]
+up = [0, 0, 1]
+fov = 1
+resolution = [16, 16]
+[three_point]
+[integrator]
+stepsize = {stepsize}
+"#
+        ))
+    }
+
+    #[test]
+    fn a_ray_takes_one_sample_per_step_until_the_eye_transmittance_is_spent() {
+        // Thin: every ray crosses the whole box, one sample per step.
+        let thin = constant_box(0.5, 0.01);
+        let samples = eye_samples_per_ray(&thin, 4);
+        assert!((samples - 100.0).abs() <= 1.0, "{samples}");
+        // Dense: the march stops where T = termination, at ln(1/termination)/σt.
+        let dense = constant_box(40.0, 0.001);
+        let sigma_t = dense.medium().sigma_t_in_box(glam::Vec3::splat(0.5)) as f64;
+        let termination = dense.integrator().termination as f64;
+        let expected = (1.0 / termination).ln() / sigma_t / 0.001;
+        assert!(
+            expected < 1000.0,
+            "the test needs the march to stop inside the box"
+        );
+        let samples = eye_samples_per_ray(&dense, 4);
+        assert!(
+            (samples - expected).abs() <= 2.0,
+            "{samples} against {expected}"
+        );
+    }
+}
