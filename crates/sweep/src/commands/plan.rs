@@ -199,6 +199,56 @@ fn reference_seconds(exp: &Experiment, cells: &[CellSpec]) -> Result<(f64, usize
     Ok((seconds, seen.len()))
 }
 
+/// Prints each cell's estimated cost and the total: cells of one march group pay their
+/// shared march once, and each distinct reference is counted once.
+fn print_estimates(
+    exp: &Experiment,
+    cells: &[CellSpec],
+    hashes: &[String],
+    plan_seconds: f64,
+) -> Result<()> {
+    println!("{:>5}  {:<16}  {:>9}  cell", "index", "hash", "est. [s]");
+    let mut alone = 0.0;
+    let mut own = 0.0;
+    // The most any cell of a march group spends on the march it shares.
+    let mut marches: HashMap<String, f64> = HashMap::new();
+    let mut probes = Probes::default();
+    for (c, hash) in cells.iter().zip(hashes) {
+        let cost = estimate_cost(&c.params, probes.samples_per_ray(c));
+        let key = if exp.share {
+            volphot::march_key(&c.params)
+        } else {
+            hash.clone()
+        };
+        let march = marches.entry(key).or_default();
+        *march = march.max(cost.march);
+        alone += cost.alone();
+        own += cost.own;
+        println!(
+            "{:>5}  {:<16}  {:>9.1}  {}",
+            c.index,
+            hash,
+            cost.alone(),
+            c.label()
+        );
+    }
+    let references = reference_seconds(exp, cells)?;
+    let shared = own + marches.values().sum::<f64>();
+    println!(
+        "estimated {:.0} s of rendering on 2 cores ({:.1} h): {:.0} s for the cells in {} march group(s) that share eye rays ({:.0} s if each were rendered alone) and {:.0} s for {} reference(s). Rough: calibrated on the foot at σt 80 and scaled by {}. Planned in {:.3} s.",
+        shared + references.0,
+        (shared + references.0) / 3600.0,
+        shared,
+        marches.len(),
+        alone,
+        references.0,
+        references.1,
+        probes.summary(),
+        plan_seconds + probes.seconds
+    );
+    Ok(())
+}
+
 /// Prints the plan.
 pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
     let start = std::time::Instant::now();
@@ -227,45 +277,7 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
         quality,
         cells.len()
     );
-    println!("{:>5}  {:<16}  {:>9}  cell", "index", "hash", "est. [s]");
-    let mut alone = 0.0;
-    let mut own = 0.0;
-    // The most any cell of a march group spends on the march it shares.
-    let mut marches: HashMap<String, f64> = HashMap::new();
-    let mut probes = Probes::default();
-    for (c, hash) in cells.iter().zip(&hashes) {
-        let cost = estimate_cost(&c.params, probes.samples_per_ray(c));
-        let key = if exp.share {
-            volphot::march_key(&c.params)
-        } else {
-            hash.clone()
-        };
-        let march = marches.entry(key).or_default();
-        *march = march.max(cost.march);
-        alone += cost.alone();
-        own += cost.own;
-        println!(
-            "{:>5}  {:<16}  {:>9.1}  {}",
-            c.index,
-            hash,
-            cost.alone(),
-            c.label()
-        );
-    }
-    let references = reference_seconds(&exp, &cells)?;
-    let shared = own + marches.values().sum::<f64>();
-    println!(
-        "estimated {:.0} s of rendering on 2 cores ({:.1} h): {:.0} s for the cells in {} march group(s) that share eye rays ({:.0} s if each were rendered alone) and {:.0} s for {} reference(s). Rough: calibrated on the foot at σt 80 and scaled by {}. Planned in {:.3} s.",
-        shared + references.0,
-        (shared + references.0) / 3600.0,
-        shared,
-        marches.len(),
-        alone,
-        references.0,
-        references.1,
-        probes.summary(),
-        plan_seconds + probes.seconds
-    );
+    print_estimates(&exp, &cells, &hashes, plan_seconds)?;
     if cells.len() > exp.max_cells {
         println!(
             "note: {} cells exceed the experiment's max_cells = {}; `sweep run` will ask for --yes",
