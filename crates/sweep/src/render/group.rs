@@ -1,8 +1,10 @@
 //! One march group: cells that differ only in multiple-scattering settings, rendered by one
-//! [`volphot::render_shared`] call and written cell by cell (film, PNGs, record, metrics).
+//! [`volphot::render_shared`] call and written in parallel, each cell in its own folder (film,
+//! PNGs, record, metrics).
 
 use anyhow::Result;
 use glam::Vec3;
+use rayon::prelude::*;
 use volphot::{Film, Layer, Provenance, Scene, SearchPath, SharedFilm, write_png};
 
 use super::Job;
@@ -138,18 +140,27 @@ pub(crate) fn render_group(
         None => control,
     };
     let shared = volphot::render_shared(&scene, &integrators, &control)?;
+    // The per-cell locks in `jobs` are held until the cells are written. Each cell's
+    // metrics and files are its own and single-threaded, so the cells are written in
+    // parallel (a 512² cell takes seconds; a group of 54 took minutes one by one).
+    let written: Vec<Result<()>> = jobs
+        .par_iter()
+        .zip(shared.films.par_iter())
+        .map(|((job, _lock), result)| {
+            let timings = CellTimings {
+                photon_tracing: result.photon_seconds,
+                tree_build: result.tree_seconds,
+                render: shared.render_seconds,
+                metrics: 0.0,
+                march_shared_by: jobs.len(),
+                map_shared_by: result.map_shared_by,
+            };
+            write_cell(job, &scene, result, timings, ctx.out)
+        })
+        .collect();
     let mut rendered = 0;
-    // The per-cell locks in `jobs` are held until the cells are written.
-    for ((job, _lock), result) in jobs.iter().zip(&shared.films) {
-        let timings = CellTimings {
-            photon_tracing: result.photon_seconds,
-            tree_build: result.tree_seconds,
-            render: shared.render_seconds,
-            metrics: 0.0,
-            march_shared_by: jobs.len(),
-            map_shared_by: result.map_shared_by,
-        };
-        match write_cell(job, &scene, result, timings, ctx.out) {
+    for ((job, _lock), outcome) in jobs.iter().zip(written) {
+        match outcome {
             Ok(()) => rendered += 1,
             Err(e) => failures.push((job.spec.index, format!("{e:#}"))),
         }
