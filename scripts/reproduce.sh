@@ -2,9 +2,8 @@
 # Regenerates every committed study under reports/ (see reports/REPRODUCTION.md):
 #
 #   scripts/reproduce.sh            # default quality (about an hour on 2 cores)
-#   scripts/reproduce.sh --paper    # thesis resolution and the full grids (about 4.8 h on 2
-#                                   # cores: ten studies measured at 3 h 15 min, artifacts
-#                                   # partly measured and estimated by `sweep plan --paper`)
+#   scripts/reproduce.sh --paper    # thesis resolution and the full grids (4 h 48 min on 2 cores,
+#                                   # measured; reports/REPRODUCTION.md)
 #
 # Needs the real volumes on the search path ($VOLPHOT_DATA, ./data or ../shared/data).
 # Finished cells are reused; delete a report folder to render it again.
