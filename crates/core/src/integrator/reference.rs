@@ -223,7 +223,7 @@ fn trace_path(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> PathSample {
         }
         // Absorb or scatter with the albedo (σs/σt) as survival probability.
         let albedo = medium.albedo_at(x);
-        let survive = (albedo.x + albedo.y + albedo.z) / 3.0;
+        let survive = crate::medium::survival_probability(albedo);
         if survive <= 0.0 || rng.uniform() >= survive {
             break;
         }
@@ -283,6 +283,52 @@ pub fn render_reference(scene: &Scene, passes: u32, control: &Control<'_>) -> Re
 mod tests {
     use super::*;
     use crate::test_util::{SPOT_SPHERE, scene};
+
+    /// The spot-lit sphere with σt = 20 (many scattering vertices) and an explicit split.
+    fn dense_sphere(sigma_a: [f32; 3], sigma_s: [f32; 3]) -> Scene {
+        let sigma = format!("mapping = \"explicit\"\nsigma_a = {sigma_a:?}\nsigma_s = {sigma_s:?}");
+        scene(&SPOT_SPHERE.replace("mapping = \"thesis\"\nt = 3\nalbedo = 0.8", &sigma))
+    }
+
+    /// Per channel: the image's mean of the total, and the variance of that mean.
+    fn mean_and_variance(scene: &Scene, passes: u32) -> (Vec3, Vec3) {
+        let mut acc = ReferenceAccumulator::new(20, 20);
+        acc.add_passes(scene, passes, &Control::none()).unwrap();
+        let film = acc.film();
+        let n = film.total().len() as f32;
+        let mean = film.total().iter().sum::<Vec3>() / n;
+        let variance = acc.total_variance().unwrap().iter().sum::<Vec3>() / (n * n);
+        (mean, variance)
+    }
+
+    #[test]
+    fn each_channel_of_a_coloured_albedo_renders_as_the_grey_medium_of_its_albedo() {
+        // σt = 20 in every channel; albedo (0.9, 0.3, 0.1). Extinction is grey, so each
+        // channel's light is the grey medium's with that channel's albedo.
+        let albedo = [0.9, 0.3, 0.1];
+        let passes = 256;
+        let coloured = dense_sphere(albedo.map(|a| 20.0 * (1.0 - a)), albedo.map(|a| 20.0 * a));
+        let (mean, variance) = mean_and_variance(&coloured, passes);
+        for (c, a) in albedo.into_iter().enumerate() {
+            let grey = dense_sphere([20.0 * (1.0 - a); 3], [20.0 * a; 3]);
+            let (grey_mean, grey_variance) = mean_and_variance(&grey, passes);
+            let z = (mean[c] - grey_mean[c]) / (variance[c] + grey_variance[c]).sqrt();
+            assert!(
+                z.abs() < 4.0,
+                "channel {c}: {} vs grey {}, z = {z}",
+                mean[c],
+                grey_mean[c]
+            );
+            // The weights stay bounded: no channel is much noisier than its grey medium
+            // (surviving with the channels' mean, red's variance is many times grey 0.9's).
+            assert!(
+                variance[c] <= 1.5 * grey_variance[c],
+                "channel {c}: variance {} vs grey {}",
+                variance[c],
+                grey_variance[c]
+            );
+        }
+    }
 
     #[test]
     fn the_total_variance_survives_a_film_and_a_resume() {

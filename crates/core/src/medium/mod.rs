@@ -97,6 +97,27 @@ fn ball_points() -> &'static [Vec3] {
     })
 }
 
+/// The probability that a path or a photon scatters (rather than is absorbed) at a
+/// collision with albedo `albedo` (Russian roulette, thesis §5.1); its throughput or power
+/// is then multiplied by `albedo / survive`, which keeps every channel's expectation.
+///
+/// A grey albedo survives with itself (written as the channels' mean, the expression every
+/// earlier release used, so grey media render the same to the bit). A coloured one survives
+/// with its largest channel, so that no channel's weight `albedo_c / survive` exceeds 1: with
+/// the mean instead, the strongest channel's throughput grows by `albedo_c / mean` at every
+/// vertex (×2.6 for a red albedo (0.95, 0.1, 0.05)), and the rare long paths that survive
+/// carry fireflies of many times the pixel's value: the weight's second moment per vertex,
+/// `albedo_c² / survive`, exceeds 1 (2.5 for that red), so the variance grows without
+/// bound with the path's length; with the largest channel it is at most `albedo_c` ≤ 1.
+#[inline]
+pub(crate) fn survival_probability(albedo: Vec3) -> f32 {
+    if albedo.x == albedo.y && albedo.y == albedo.z {
+        (albedo.x + albedo.y + albedo.z) / 3.0
+    } else {
+        albedo.max_element()
+    }
+}
+
 /// Per-channel colour grids for a colour transfer function (evaluated on the raw values).
 fn colour_grids(volume: &Volume, transfer: &TransferFunction) -> Option<Box<[Grid; 3]>> {
     transfer.colour_at(0.0)?;
