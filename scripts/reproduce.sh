@@ -2,7 +2,7 @@
 # Regenerates every committed study under reports/ (see reports/REPRODUCTION.md):
 #
 #   scripts/reproduce.sh            # default quality (about an hour on 2 cores)
-#   scripts/reproduce.sh --paper    # thesis resolution and the full grids (4 h 48 min on 2 cores,
+#   scripts/reproduce.sh --paper    # thesis resolution and the full grids (5 h 10 min on 2 cores,
 #                                   # measured; reports/REPRODUCTION.md)
 #
 # Needs the real volumes on the search path ($VOLPHOT_DATA, ./data or ../shared/data).
