@@ -40,6 +40,22 @@ maxdist = 0.25
 reference_spp = 1024
 "#;
 
+/// [`SPOT_SPHERE`] with σt = `sigma_t` in every channel and the single-scattering albedo
+/// `albedo` per channel (the explicit mapping): a dense, coloured medium.
+pub fn spot_sphere_with_albedo(sigma_t: f32, albedo: [f32; 3]) -> Scene {
+    let thesis = "mapping = \"thesis\"\nt = 3\nalbedo = 0.8";
+    assert!(
+        SPOT_SPHERE.contains(thesis),
+        "SPOT_SPHERE's [sigma] table changed"
+    );
+    let explicit = format!(
+        "mapping = \"explicit\"\nsigma_a = {:?}\nsigma_s = {:?}",
+        albedo.map(|a| sigma_t * (1.0 - a)),
+        albedo.map(|a| sigma_t * a)
+    );
+    scene(&SPOT_SPHERE.replace(thesis, &explicit))
+}
+
 /// Builds a scene from inline TOML (phantoms only, so no data files are needed).
 pub fn scene(src: &str) -> Scene {
     let params = SceneParams::from_toml(src, Path::new("inline.toml")).expect("valid test scene");

@@ -282,13 +282,7 @@ pub fn render_reference(scene: &Scene, passes: u32, control: &Control<'_>) -> Re
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::{SPOT_SPHERE, scene};
-
-    /// The spot-lit sphere with σt = 20 (many scattering vertices) and an explicit split.
-    fn dense_sphere(sigma_a: [f32; 3], sigma_s: [f32; 3]) -> Scene {
-        let sigma = format!("mapping = \"explicit\"\nsigma_a = {sigma_a:?}\nsigma_s = {sigma_s:?}");
-        scene(&SPOT_SPHERE.replace("mapping = \"thesis\"\nt = 3\nalbedo = 0.8", &sigma))
-    }
+    use crate::test_util::{SPOT_SPHERE, scene, spot_sphere_with_albedo};
 
     /// Per channel: the image's mean of the total, and the variance of that mean.
     fn mean_and_variance(scene: &Scene, passes: u32) -> (Vec3, Vec3) {
@@ -307,10 +301,10 @@ mod tests {
         // channel's light is the grey medium's with that channel's albedo.
         let albedo = [0.9, 0.3, 0.1];
         let passes = 256;
-        let coloured = dense_sphere(albedo.map(|a| 20.0 * (1.0 - a)), albedo.map(|a| 20.0 * a));
+        let coloured = spot_sphere_with_albedo(20.0, albedo);
         let (mean, variance) = mean_and_variance(&coloured, passes);
         for (c, a) in albedo.into_iter().enumerate() {
-            let grey = dense_sphere([20.0 * (1.0 - a); 3], [20.0 * a; 3]);
+            let grey = spot_sphere_with_albedo(20.0, [a; 3]);
             let (grey_mean, grey_variance) = mean_and_variance(&grey, passes);
             let z = (mean[c] - grey_mean[c]) / (variance[c] + grey_variance[c]).sqrt();
             assert!(

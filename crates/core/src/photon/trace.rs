@@ -280,14 +280,7 @@ mod tests {
 
     /// Photons through the spot-lit sphere at σt = 20 with an explicit split per channel.
     fn dense_sphere_photons(albedo: [f32; 3]) -> (Vec<Photon>, Vec3) {
-        let sigma = format!(
-            "mapping = \"explicit\"\nsigma_a = {:?}\nsigma_s = {:?}",
-            albedo.map(|a| 20.0 * (1.0 - a)),
-            albedo.map(|a| 20.0 * a)
-        );
-        let src = crate::test_util::SPOT_SPHERE
-            .replace("mapping = \"thesis\"\nt = 3\nalbedo = 0.8", &sigma);
-        let scene = crate::test_util::scene(&src);
+        let scene = crate::test_util::spot_sphere_with_albedo(20.0, albedo);
         let settings = TraceSettings {
             photons: 20_000,
             free_path: FreePath::Delta,
