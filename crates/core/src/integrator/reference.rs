@@ -288,9 +288,9 @@ mod tests {
     fn mean_and_variance(scene: &Scene, passes: u32) -> (Vec3, Vec3) {
         let mut acc = ReferenceAccumulator::new(20, 20);
         acc.add_passes(scene, passes, &Control::none()).unwrap();
-        let film = acc.film();
-        let n = film.total().len() as f32;
-        let mean = film.total().iter().sum::<Vec3>() / n;
+        let total = acc.film().total();
+        let n = total.len() as f32;
+        let mean = total.iter().sum::<Vec3>() / n;
         let variance = acc.total_variance().unwrap().iter().sum::<Vec3>() / (n * n);
         (mean, variance)
     }
