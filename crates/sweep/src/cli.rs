@@ -451,6 +451,9 @@ pub(crate) enum BenchConfig {
     Exact,
     /// Exact optical depth at every sample (no interpolation at all).
     EverySample,
+    /// The default with `thin_below = 0.5`: gathers and optical-depth fills spaced out
+    /// behind the front, by eye transmittance.
+    Thinned,
     /// The default on one thread (the thread scaling).
     OneThread,
     /// The transmittance and scattering caches (128 nodes): fast, not exact.

@@ -28,8 +28,14 @@ pub(super) fn fill_adaptive(n: usize, stride: usize, track: &mut impl Track) -> 
         return 0;
     }
     track.evaluate(0);
-    let mut evaluations = 1;
-    let mut a = 0;
+    1 + fill_span(0, n, stride, track)
+}
+
+/// Fills samples `start + 1..n` of `track`, sample `start` being exact already; returns the
+/// number of exact evaluations.
+pub(super) fn fill_span(start: usize, n: usize, stride: usize, track: &mut impl Track) -> usize {
+    let mut evaluations = 0;
+    let mut a = start;
     while a + 1 < n {
         let b = (a + stride.max(1)).min(n - 1);
         track.evaluate(b);

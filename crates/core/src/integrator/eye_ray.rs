@@ -7,15 +7,18 @@
 //! at interval midpoints, and interpolated only where the midpoint shows the straight line
 //! holds to within [`TAU_TOLERANCE`]; everywhere else (shadow edges, cone edges, blocked
 //! stretches) every sample gets its exact value. Photon-map estimates are gathered at
-//! every sample: interpolating them was measured to miss the 2 % per-pixel bound.
+//! every sample: interpolating them everywhere was measured to miss the 2 % per-pixel
+//! bound. Behind the front, where the eye transmittance is below `thin_below`, both are
+//! spaced out by band ([`super::thinning`]).
 
 use std::ops::ControlFlow;
 
 use glam::Vec3;
 
-use super::adaptive::{Track, fill_adaptive, fraction};
-use super::gather::source_factor;
+use super::adaptive::{Track, fill_adaptive, fill_span, fraction};
+use super::gather::{MapGroup, source_factor};
 use super::march::{Accumulator, Marcher, RaySample};
+use super::thinning::{BANDS, Bands, gather_stride};
 use crate::math::{Ray, Rng};
 use crate::scene::{Light, Quadrature, ShadowEstimator};
 
@@ -31,13 +34,14 @@ impl Marcher<'_> {
             return;
         }
         let wo = -ray.direction;
+        let bands = Bands::new(&acc.samples, self.settings.thin_below);
         if self.settings.single {
-            self.add_single(wo, rng, acc);
+            self.add_single(wo, &bands, rng, acc);
         }
         if self.settings.multiple {
             match self.beams {
                 Some(beams) => self.add_beams(beams, ray, acc),
-                None => self.add_multiple(wo, acc),
+                None => self.add_multiple(wo, &bands, acc),
             }
         }
     }
@@ -93,7 +97,7 @@ impl Marcher<'_> {
 
     /// Single scattering of the collected samples, light by light:
     /// `σs · p · L · T(x → light)` at each sample, weighted.
-    fn add_single(&self, wo: Vec3, rng: &mut Rng, acc: &mut Accumulator) {
+    fn add_single(&self, wo: Vec3, bands: &Bands, rng: &mut Rng, acc: &mut Accumulator) {
         let n = acc.samples.len();
         let adaptive = self.settings.shadow == ShadowEstimator::Exact
             && self.shadow_caches.is_none()
@@ -107,9 +111,10 @@ impl Marcher<'_> {
                     light,
                     samples: &acc.samples,
                     tau: &mut acc.tau,
+                    tolerance: TAU_TOLERANCE,
                 };
                 let stride = self.settings.shadow_stride as usize;
-                acc.counters.shadow += fill_adaptive(n, stride, &mut track) as u64;
+                acc.counters.shadow += track.fill(stride, bands) as u64;
             }
             for i in 0..n {
                 let sample = acc.samples[i];
@@ -132,24 +137,90 @@ impl Marcher<'_> {
     }
 
     /// Multiple scattering of the collected samples: every variant's source term at every
-    /// sample, weighted (variants on one map share one gather per sample).
-    fn add_multiple(&self, wo: Vec3, acc: &mut Accumulator) {
-        for (group, scratch) in self.groups.iter().zip(&mut acc.gather) {
-            for sample in &acc.samples {
-                let estimates = &mut acc.estimates[..group.gather.len()];
-                if group.estimate(self.medium, sample.x, wo, scratch, estimates) {
+    /// sample, weighted (variants on one map share one gather per sample); behind the front
+    /// the estimates of the thinned bands are interpolated between gathers.
+    fn add_multiple(&self, wo: Vec3, bands: &Bands, acc: &mut Accumulator) {
+        let n = acc.samples.len();
+        let front = bands.first_thinned().min(n - 1);
+        for (gi, group) in self.groups.iter().enumerate() {
+            let estimates = &mut acc.estimates[..group.gather.len()];
+            for sample in &acc.samples[..=front] {
+                if group.estimate(self.medium, sample.x, wo, &mut acc.gather[gi], estimates) {
                     acc.counters.gathers += 1;
                 }
-                for (&vi, e) in group.variants.iter().zip(estimates.iter()) {
-                    let factor = source_factor(
-                        self.variants[vi].estimate,
-                        self.medium,
-                        sample.x,
-                        sample.sigma_t,
-                    );
-                    acc.multiple[vi] += factor * *e * sample.weight;
-                }
+                self.add_source(group, sample, |v| estimates[v], &mut acc.multiple);
             }
+            if front + 1 < n {
+                self.add_multiple_thinned(gi, bands, front, wo, acc);
+            }
+        }
+    }
+
+    /// The thinned samples `front + 1..` of map group `gi` (`acc.estimates` holds the
+    /// estimate at `front`): gathers `2^b` samples apart in band `b` and at every band's
+    /// end, each variant's estimate linear in between.
+    fn add_multiple_thinned(
+        &self,
+        gi: usize,
+        bands: &Bands,
+        front: usize,
+        wo: Vec3,
+        acc: &mut Accumulator,
+    ) {
+        let group = &self.groups[gi];
+        let nv = group.gather.len();
+        let n = acc.samples.len();
+        let Accumulator {
+            samples,
+            estimates,
+            knot,
+            gather,
+            multiple,
+            counters,
+            ..
+        } = acc;
+        let mut a = front;
+        while a + 1 < n {
+            let band = bands.band_of(a + 1);
+            let b = (a + gather_stride(band, self.gather_knot_cap)).min(bands.band_end(band));
+            if group.estimate(
+                self.medium,
+                samples[b].x,
+                wo,
+                &mut gather[gi],
+                &mut knot[..nv],
+            ) {
+                counters.gathers += 1;
+            }
+            for (i, sample) in samples.iter().enumerate().take(b).skip(a + 1) {
+                let f = fraction(a, b, i);
+                let lerp = |v: usize| estimates[v] + (knot[v] - estimates[v]) * f;
+                self.add_source(group, sample, lerp, multiple);
+            }
+            self.add_source(group, &samples[b], |v| knot[v], multiple);
+            std::mem::swap(estimates, knot);
+            a = b;
+        }
+    }
+
+    /// Adds each variant's source term at `sample`, `estimate(v)` being the group's `v`-th
+    /// estimate there.
+    #[inline]
+    fn add_source(
+        &self,
+        group: &MapGroup<'_>,
+        sample: &RaySample,
+        estimate: impl Fn(usize) -> Vec3,
+        multiple: &mut [Vec3],
+    ) {
+        for (v, &vi) in group.variants.iter().enumerate() {
+            let factor = source_factor(
+                self.variants[vi].estimate,
+                self.medium,
+                sample.x,
+                sample.sigma_t,
+            );
+            multiple[vi] += factor * estimate(v) * sample.weight;
         }
     }
 
@@ -213,6 +284,28 @@ struct ShadowTrack<'a> {
     light: &'a Light,
     samples: &'a [RaySample],
     tau: &'a mut [f32],
+    /// The largest optical-depth difference at a checked midpoint that still interpolates.
+    tolerance: f32,
+}
+
+impl ShadowTrack<'_> {
+    /// Fills the optical depth at every sample: in front by `stride` and [`TAU_TOLERANCE`],
+    /// in thinned band `b` by `2^b` times the stride and `2^(b+1)` times the tolerance
+    /// (module [`super::thinning`]); returns the number of exact evaluations.
+    fn fill(&mut self, stride: usize, bands: &Bands) -> usize {
+        let n = self.samples.len();
+        let front = (bands.first_thinned() + 1).min(n);
+        let mut evaluations = fill_adaptive(front, stride, self);
+        for b in 1..=BANDS {
+            let (start, end) = (bands.band_start(b), bands.band_end(b));
+            if start < end {
+                self.tolerance = TAU_TOLERANCE * (2u32 << b) as f32;
+                evaluations += fill_span(start, end + 1, stride << b, self);
+            }
+        }
+        self.tolerance = TAU_TOLERANCE;
+        evaluations
+    }
 }
 
 impl Track for ShadowTrack<'_> {
@@ -246,6 +339,6 @@ impl Track for ShadowTrack<'_> {
     fn agrees(&self, a: usize, b: usize, m: usize) -> bool {
         let f = fraction(a, b, m);
         let predicted = self.tau[a] + (self.tau[b] - self.tau[a]) * f;
-        (predicted - self.tau[m]).abs() <= TAU_TOLERANCE
+        (predicted - self.tau[m]).abs() <= self.tolerance
     }
 }

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use super::cache::TransmittanceCache;
 use super::cache_error::CacheError;
 use super::gather::{MapGroup, MsVariant, group_by_map};
+use super::thinning::knot_cap;
 use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
@@ -61,6 +62,8 @@ pub(super) struct Marcher<'a> {
     pub(super) shadow_caches: Option<Vec<TransmittanceCache>>,
     /// `−ln(termination)`: optical depth at which a marched shadow ray counts as blocked.
     pub(super) shadow_tau_max: f32,
+    /// The largest spacing of gathers in a thinned band, in samples.
+    pub(super) gather_knot_cap: usize,
 }
 
 #[derive(Default)]
@@ -93,6 +96,8 @@ pub(super) struct Accumulator {
     pub(super) depth_hits: u32,
     pub(super) multiple: Vec<Vec3>,
     pub(super) estimates: Vec<Vec3>,
+    /// The estimates at the next gather of a thinned band (module [`super::thinning`]).
+    pub(super) knot: Vec<Vec3>,
     /// One gather scratch per map group (its candidates belong to that group's map).
     pub(super) gather: Vec<GatherScratch>,
     pub(super) counters: RowCounters,
@@ -112,6 +117,7 @@ impl Accumulator {
             depth_hits: 0,
             multiple: vec![Vec3::ZERO; variants],
             estimates: vec![Vec3::ZERO; max_group],
+            knot: vec![Vec3::ZERO; max_group],
             gather: vec![GatherScratch::default(); groups],
             counters: RowCounters::default(),
             samples: Vec::new(),
@@ -258,6 +264,10 @@ fn run_march<'a>(
         variants,
         groups,
         beams,
+        gather_knot_cap: knot_cap(
+            medium.density_grid().voxel_size().min_element(),
+            settings.stepsize,
+        ),
         shadow_tau_max: if settings.termination > 0.0 {
             -settings.termination.ln()
         } else {

@@ -35,6 +35,7 @@ mod march;
 mod probe;
 mod progressive;
 mod reference;
+mod thinning;
 
 pub use cache::CACHE_TAU_MAX;
 pub use cache_error::{CacheError, ErrorBound};

@@ -35,6 +35,7 @@ pub fn eye_samples_per_ray(scene: &Scene, rays: u32) -> f64 {
         beams: None,
         shadow_caches: None,
         shadow_tau_max: f32::INFINITY,
+        gather_knot_cap: 1,
     };
     let camera = scene.camera();
     let (width, height) = (camera.width() as f32, camera.height() as f32);

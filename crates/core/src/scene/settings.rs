@@ -15,6 +15,7 @@
 //! | `estimate` | `masked` | `σs(x)·Σ p ΔΦ/(σt(x_p)·V_m)`, `V_m` the medium's share of the gather sphere; `fluence` divides by the whole sphere, `albedo` and `thesis` (eq. 11) also assume σt constant in it |
 //! | `termination` | 0.001 | stop marching eye and shadow rays when transmittance < 0.1 % |
 //! | `shadow_stride` | 8 | exact optical depth at every 8th sample and wherever interpolating it would err by > 0.05 (0: every sample) |
+//! | `thin_below` | 0 (off) | behind the front, where the eye transmittance is below this, gathers and shadow fills are spaced out by band and interpolated |
 //! | `shadow_cache`, `ms_cache` | 0 (off) | exact path by default |
 //! | `spp` | 1 | one jittered eye ray per pixel, as the thesis |
 //! | `reference_spp` | 64 | reference path tracer samples per pixel |
@@ -165,6 +166,12 @@ pub struct IntegratorParams {
     /// where the midpoint agrees with the straight line (within 0.05); shadow and cone edges
     /// get exact values at every sample. 0 computes every sample.
     pub shadow_stride: u32,
+    /// Eye transmittance below which the marcher spaces out its photon-map gathers and its
+    /// optical-depth fills, doubling the spacing at each halving of the transmittance, and
+    /// interpolates in between (0 = off, every sample as above). Not written when 0, so the
+    /// content addresses of cells without it stay what they were.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub thin_below: f32,
     /// Eye rays per pixel for the photon integrator.
     pub spp: u32,
     /// Samples per pixel for the reference path tracer.
@@ -213,6 +220,7 @@ impl Default for IntegratorParams {
             shadow_cache: 0,
             ms_cache: 0,
             shadow_stride: 8,
+            thin_below: 0.0,
             spp: 1,
             reference_spp: 64,
             seed: 1,
@@ -293,6 +301,7 @@ impl IntegratorParams {
             ));
         }
         check_range("termination", self.termination as f64, 0.0, 0.5)?;
+        check_range("thin_below", self.thin_below as f64, 0.0, 1.0)?;
         if self.shadow_cache != 0 && !(8..=1024).contains(&self.shadow_cache) {
             return Err(Error::parameter(
                 "shadow_cache",

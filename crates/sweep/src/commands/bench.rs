@@ -22,10 +22,11 @@ use crate::analyse::{Agreement, agreement, mse_against_noisy_reference};
 use crate::cli::{BenchArgs, BenchConfig};
 
 /// Every configuration, in the order they run.
-const ALL: [BenchConfig; 6] = [
+const ALL: [BenchConfig; 7] = [
     BenchConfig::Marched,
     BenchConfig::Exact,
     BenchConfig::EverySample,
+    BenchConfig::Thinned,
     BenchConfig::OneThread,
     BenchConfig::Cached,
     BenchConfig::Efficiency,
@@ -94,9 +95,14 @@ pub(super) fn headline(args: &BenchArgs) -> PathBuf {
     })
 }
 
-/// The integrator of a configuration, from the scene's own.
+/// The eye transmittance below which the `thinned` configuration thins its evaluations.
+const BENCH_THIN_BELOW: f32 = 0.5;
+
+/// The integrator of a configuration, from the scene's own (thinning off unless the
+/// configuration is `thinned`).
 fn configure(config: BenchConfig, base: &IntegratorParams) -> IntegratorParams {
     let mut s = base.clone();
+    s.thin_below = 0.0;
     match config {
         BenchConfig::Marched => {
             s.shadow = ShadowEstimator::March;
@@ -109,6 +115,11 @@ fn configure(config: BenchConfig, base: &IntegratorParams) -> IntegratorParams {
         BenchConfig::EverySample => {
             s.shadow = ShadowEstimator::Exact;
             s.shadow_stride = 0;
+            (s.shadow_cache, s.ms_cache) = (0, 0);
+        }
+        BenchConfig::Thinned => {
+            s.shadow = ShadowEstimator::Exact;
+            s.thin_below = BENCH_THIN_BELOW;
             (s.shadow_cache, s.ms_cache) = (0, 0);
         }
         BenchConfig::Cached => (s.shadow_cache, s.ms_cache) = (128, 128),
@@ -125,6 +136,7 @@ fn config_name(config: BenchConfig) -> &'static str {
         BenchConfig::Marched => "marched",
         BenchConfig::Exact => "exact",
         BenchConfig::EverySample => "every-sample",
+        BenchConfig::Thinned => "thinned",
         BenchConfig::OneThread => "one-thread",
         BenchConfig::Cached => "cached",
         BenchConfig::Efficiency => "efficiency",
