@@ -74,9 +74,9 @@ pub use film::{
     Film, Layer, mean_rgb, read_pfm, rmse, to_srgb8, write_pfm, write_png, write_png_rgb8,
 };
 pub use integrator::{
-    CACHE_TAU_MAX, CacheError, ErrorBound, MAX_VERTICES, MarchOutput, MarchStats, MsVariant,
-    ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, StopReason, eye_samples_per_ray,
-    next_radius, progress_rows, render_march, render_march_beams, render_progressive,
+    CACHE_TAU_MAX, CacheError, ErrorBound, EyeProbe, MAX_VERTICES, MarchOutput, MarchStats,
+    MsVariant, ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, StopReason, next_radius,
+    probe_eye_rays, progress_rows, render_march, render_march_beams, render_progressive,
     render_reference,
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};

@@ -18,7 +18,7 @@ use glam::Vec3;
 use super::adaptive::{Track, fill_adaptive, fill_span, fraction};
 use super::gather::{MapGroup, source_factor};
 use super::march::{Accumulator, Marcher, RaySample};
-use super::thinning::{BANDS, Bands, gather_stride};
+use super::thinning::{BANDS, Bands};
 use crate::math::{Ray, Rng};
 use crate::scene::{Light, Quadrature, ShadowEstimator};
 
@@ -151,25 +151,17 @@ impl Marcher<'_> {
                 self.add_source(group, sample, |v| estimates[v], &mut acc.multiple);
             }
             if front + 1 < n {
-                self.add_multiple_thinned(gi, bands, front, wo, acc);
+                self.add_multiple_thinned(gi, bands, wo, acc);
             }
         }
     }
 
-    /// The thinned samples `front + 1..` of map group `gi` (`acc.estimates` holds the
-    /// estimate at `front`): gathers `2^b` samples apart in band `b` and at every band's
-    /// end, each variant's estimate linear in between.
-    fn add_multiple_thinned(
-        &self,
-        gi: usize,
-        bands: &Bands,
-        front: usize,
-        wo: Vec3,
-        acc: &mut Accumulator,
-    ) {
+    /// The thinned samples of map group `gi` (`acc.estimates` holds the estimate at the
+    /// last sample gathered in front): gathers at the bands' knots, each variant's
+    /// estimate linear in between.
+    fn add_multiple_thinned(&self, gi: usize, bands: &Bands, wo: Vec3, acc: &mut Accumulator) {
         let group = &self.groups[gi];
         let nv = group.gather.len();
-        let n = acc.samples.len();
         let Accumulator {
             samples,
             estimates,
@@ -179,10 +171,7 @@ impl Marcher<'_> {
             counters,
             ..
         } = acc;
-        let mut a = front;
-        while a + 1 < n {
-            let band = bands.band_of(a + 1);
-            let b = (a + gather_stride(band, self.gather_knot_cap)).min(bands.band_end(band));
+        for (a, b) in bands.knots(self.gather_knot_cap) {
             if group.estimate(
                 self.medium,
                 samples[b].x,
@@ -199,7 +188,6 @@ impl Marcher<'_> {
             }
             self.add_source(group, &samples[b], |v| knot[v], multiple);
             std::mem::swap(estimates, knot);
-            a = b;
         }
     }
 

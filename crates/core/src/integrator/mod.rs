@@ -41,7 +41,7 @@ pub use cache::CACHE_TAU_MAX;
 pub use cache_error::{CacheError, ErrorBound};
 pub use gather::MsVariant;
 pub use march::{MarchOutput, MarchStats, render_march, render_march_beams};
-pub use probe::eye_samples_per_ray;
+pub use probe::{EyeProbe, probe_eye_rays};
 pub use progressive::{
     ProgressiveOutput, ProgressiveStats, StopReason, next_radius, progress_rows, render_progressive,
 };

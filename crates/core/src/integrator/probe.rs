@@ -7,24 +7,36 @@
 //! of eye rays is cheap (no shading, no photons) and gives a planner the scene's own scale.
 
 use super::march::{Accumulator, Marcher};
+use super::thinning::{Bands, knot_cap};
 use crate::math::{Domain, Rng};
 use crate::scene::Scene;
 
-/// The mean number of marching samples (σt > 0) per eye ray, over `rays` × `rays` eye rays
-/// spread evenly over the image, each at a pixel's centre. Deterministic: the rays and each
-/// ray's random offset depend only on the scene's seed.
+/// What a probe measured per eye ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EyeProbe {
+    /// Marching samples (σt > 0).
+    pub samples: f64,
+    /// Photon-map gathers per map: the samples, or fewer where `thin_below` spaces them out
+    /// behind the front.
+    pub gathers: f64,
+}
+
+/// The mean number of marching samples (σt > 0) and of gathers per eye ray, over `rays` ×
+/// `rays` eye rays spread evenly over the image, each at a pixel's centre. Deterministic:
+/// the rays and each ray's random offset depend only on the scene's seed.
 ///
 /// ```
 /// use std::path::Path;
-/// use volphot::{Scene, SceneParams, SearchPath, eye_samples_per_ray};
+/// use volphot::{Scene, SceneParams, SearchPath, probe_eye_rays};
 /// let src = "[volume]\nphantom = { name = \"sphere\", resolution = [16, 16, 16] }\n[three_point]\n";
 /// let params = SceneParams::from_toml(src, Path::new("sphere.toml")).unwrap();
 /// let scene = Scene::from_params(&params, Path::new("."), &SearchPath::new(vec![])).unwrap();
-/// let samples = eye_samples_per_ray(&scene, 8);
-/// assert!(samples > 0.0);
-/// assert_eq!(samples, eye_samples_per_ray(&scene, 8));
+/// let probe = probe_eye_rays(&scene, 8);
+/// assert!(probe.samples > 0.0);
+/// assert_eq!(probe.gathers, probe.samples, "no thinning");
+/// assert_eq!(probe, probe_eye_rays(&scene, 8));
 /// ```
-pub fn eye_samples_per_ray(scene: &Scene, rays: u32) -> f64 {
+pub fn probe_eye_rays(scene: &Scene, rays: u32) -> EyeProbe {
     let settings = scene.integrator();
     let marcher = Marcher {
         medium: scene.medium(),
@@ -35,13 +47,16 @@ pub fn eye_samples_per_ray(scene: &Scene, rays: u32) -> f64 {
         beams: None,
         shadow_caches: None,
         shadow_tau_max: f32::INFINITY,
-        gather_knot_cap: 1,
+        gather_knot_cap: knot_cap(
+            scene.medium().density_grid().voxel_size().min_element(),
+            settings.stepsize,
+        ),
     };
     let camera = scene.camera();
     let (width, height) = (camera.width() as f32, camera.height() as f32);
     let rays = rays.max(1);
     let mut acc = Accumulator::new(0, 0, 0);
-    let mut total = 0u64;
+    let (mut samples, mut gathers) = (0u64, 0u64);
     for j in 0..rays {
         for i in 0..rays {
             let (x, y) = (
@@ -51,10 +66,16 @@ pub fn eye_samples_per_ray(scene: &Scene, rays: u32) -> f64 {
             let ray = camera.ray(x, y);
             let mut rng = Rng::stream2(settings.seed, Domain::Pixels, (j * rays + i) as u64, 0);
             marcher.collect_samples(&ray, &mut rng, &mut acc);
-            total += acc.samples.len() as u64;
+            samples += acc.samples.len() as u64;
+            let bands = Bands::new(&acc.samples, settings.thin_below);
+            gathers += bands.gathers(marcher.gather_knot_cap) as u64;
         }
     }
-    total as f64 / (rays as f64 * rays as f64)
+    let per_ray = |total: u64| total as f64 / (rays as f64 * rays as f64);
+    EyeProbe {
+        samples: per_ray(samples),
+        gathers: per_ray(gathers),
+    }
 }
 
 #[cfg(test)]
@@ -88,7 +109,7 @@ stepsize = {stepsize}
     fn a_ray_takes_one_sample_per_step_until_the_eye_transmittance_is_spent() {
         // Thin: every ray crosses the whole box, one sample per step.
         let thin = constant_box(0.5, 0.01);
-        let samples = eye_samples_per_ray(&thin, 4);
+        let samples = probe_eye_rays(&thin, 4).samples;
         assert!((samples - 100.0).abs() <= 1.0, "{samples}");
         // Dense: the march stops where T = termination, at ln(1/termination)/σt.
         let dense = constant_box(40.0, 0.001);
@@ -99,10 +120,34 @@ stepsize = {stepsize}
             expected < 1000.0,
             "the test needs the march to stop inside the box"
         );
-        let samples = eye_samples_per_ray(&dense, 4);
+        let samples = probe_eye_rays(&dense, 4).samples;
         assert!(
             (samples - expected).abs() <= 2.0,
             "{samples} against {expected}"
+        );
+    }
+
+    #[test]
+    fn thinning_counts_fewer_gathers_than_samples_behind_the_front() {
+        let dense = constant_box(40.0, 0.001);
+        let plain = probe_eye_rays(&dense, 4);
+        assert_eq!(plain.gathers, plain.samples);
+        let thinned = dense
+            .with_integrator(crate::IntegratorParams {
+                thin_below: 0.5,
+                ..dense.integrator().clone()
+            })
+            .unwrap();
+        let probe = probe_eye_rays(&thinned, 4);
+        assert_eq!(
+            probe.samples, plain.samples,
+            "the march itself is unchanged"
+        );
+        // σt = 40 per unit at step 0.001: transmittance 0.5 after ~17 samples, and the
+        // bands below it take 2, 4, 8, 16 and up to 31 samples per gather.
+        assert!(
+            probe.gathers < 0.3 * probe.samples && probe.gathers > 17.0,
+            "{probe:?}"
         );
     }
 }

@@ -83,6 +83,37 @@ impl Bands {
     pub(super) fn band_start(&self, b: usize) -> usize {
         self.starts[b - 1]
     }
+
+    /// The gathers behind the front, as intervals `(a, b)` between successive gathers: the
+    /// first `a` is the last sample gathered in front, each `b` is gathered and the samples
+    /// between are interpolated; spacing `2^band` (at most `cap`), ending at every band's
+    /// end.
+    pub(super) fn knots(&self, cap: usize) -> impl Iterator<Item = (usize, usize)> + '_ {
+        let n = self.starts[BANDS];
+        let mut a = self.first_thinned().min(n.saturating_sub(1));
+        std::iter::from_fn(move || {
+            if a + 1 >= n {
+                return None;
+            }
+            let band = self.band_of(a + 1);
+            let b = (a + gather_stride(band, cap)).min(self.band_end(band));
+            let interval = (a, b);
+            a = b;
+            Some(interval)
+        })
+    }
+
+    /// The gathers an eye ray with these bands makes per map.
+    pub(super) fn gathers(&self, cap: usize) -> usize {
+        let n = self.starts[BANDS];
+        // Every sample up to the first thinned one, then one per interval.
+        let front = if n == 0 {
+            0
+        } else {
+            self.first_thinned().min(n - 1) + 1
+        };
+        front + self.knots(cap).count()
+    }
 }
 
 /// The largest gather spacing in samples: [`KNOT_VOXELS`] voxels of extent `voxel`.
@@ -134,6 +165,40 @@ mod tests {
         let bands = Bands::new(&samples(&[0.0, 5.0, 9.0]), 0.0);
         assert_eq!(bands.first_thinned(), 3);
         assert!((0..3).all(|i| bands.band_of(i) == 0));
+        assert_eq!(bands.knots(8).count(), 0);
+        assert_eq!(bands.gathers(8), 3);
+    }
+
+    #[test]
+    fn knots_double_their_spacing_per_band_and_end_on_band_ends() {
+        // 4 samples in front (transmittance ≥ 0.5), then 8 in each band 1…5 by halving.
+        let mut taus = vec![0.0f32; 4];
+        for b in 1..=5 {
+            let t = 0.5 / (1u32 << (b - 1)) as f32 * 0.99;
+            taus.extend(std::iter::repeat_n(-t.ln(), 8));
+        }
+        let bands = Bands::new(&samples(&taus), 0.5);
+        let knots: Vec<(usize, usize)> = bands.knots(31).collect();
+        // Band 1 = samples 4..12 (spacing 2), band 2 = 12..20 (4), band 3 = 20..28 (8),
+        // band 4 = 28..36 (16, cut at the band's end), band 5 = 36..44 (to the last sample).
+        assert_eq!(
+            knots,
+            [
+                (4, 6),
+                (6, 8),
+                (8, 10),
+                (10, 12),
+                (12, 16),
+                (16, 20),
+                (20, 28),
+                (28, 36),
+                (36, 43)
+            ]
+        );
+        // Samples 0..=4 in front, then one gather per interval.
+        assert_eq!(bands.gathers(31), 5 + 9);
+        let cap2: Vec<(usize, usize)> = bands.knots(2).skip(4).take(2).collect();
+        assert_eq!(cap2, [(12, 14), (14, 16)]);
     }
 
     #[test]

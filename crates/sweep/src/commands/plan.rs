@@ -4,7 +4,9 @@ use std::collections::{HashMap, HashSet};
 use std::process::ExitCode;
 
 use anyhow::Result;
-use volphot::{Method, MsEstimator, SceneParams, SearchPath, ShadowEstimator, eye_samples_per_ray};
+use volphot::{
+    EyeProbe, Method, MsEstimator, SceneParams, SearchPath, ShadowEstimator, probe_eye_rays,
+};
 
 use crate::cli::PlanArgs;
 use crate::plan::{CellSpec, Experiment, reference_params};
@@ -18,7 +20,7 @@ use crate::render::Caches;
 /// cross the volume: `consistency --paper` took 0.36× the unprobed estimate at σt 290 and
 /// 5.8× on the head at σt 6); marched shadow rays also grow with 1/stepsize.
 mod calibration {
-    /// Eye-march samples per ray on that frame (`volphot::eye_samples_per_ray`, 32 × 32
+    /// Eye-march samples per ray on that frame (`volphot::probe_eye_rays`, 32 × 32
     /// rays): the costs below are per pixel at this march length.
     pub(super) const SAMPLES_PER_RAY: f64 = 28.1;
     /// Single scattering with the exact shadow integral, per pixel and light (single +
@@ -71,8 +73,10 @@ impl CellCost {
 }
 
 /// The estimated cost of one cell (see [`CellCost`]), given the scene's eye-march samples
-/// per ray when it could be probed (else the calibration frame's, scaled by the step).
-pub(crate) fn estimate_cost(p: &SceneParams, samples_per_ray: Option<f64>) -> CellCost {
+/// and gathers per ray when it could be probed (else the calibration frame's, scaled by
+/// the step). Where `thin_below` spaces gathers out, the shading costs scale by gathers
+/// per sample (the optical-depth fills thin out alike, about as much).
+pub(crate) fn estimate_cost(p: &SceneParams, probe: Option<EyeProbe>) -> CellCost {
     use calibration::*;
     let [w, h] = p.camera.resolution;
     let i = &p.integrator;
@@ -85,21 +89,19 @@ pub(crate) fn estimate_cost(p: &SceneParams, samples_per_ray: Option<f64>) -> Ce
     }
     let eye_rays = pixels * i.spp.max(1) as f64;
     let steps = 0.0005 / i.stepsize as f64;
-    let march_length = samples_per_ray.map_or(steps, |s| s / SAMPLES_PER_RAY);
+    let march_length = probe.map_or(steps, |e| e.samples / SAMPLES_PER_RAY);
+    let shaded = probe.map_or(march_length, |e| e.gathers / SAMPLES_PER_RAY);
     let lights = (p.lights.len() + if p.three_point.is_some() { 3 } else { 0 }).max(1) as f64;
     let cache = |cached: bool| if cached { CACHED } else { 1.0 };
     let single = match (i.single, i.shadow) {
         (false, _) => 0.0,
         (true, ShadowEstimator::March) => SINGLE_MARCHED * march_length * steps,
-        (true, _) => SINGLE_EXACT * march_length,
+        (true, _) => SINGLE_EXACT * shaded,
     } * eye_rays
         * lights
         * cache(i.shadow_cache > 0);
     let multiple = if i.multiple {
-        (MULTIPLE + MULTIPLE_PER_NUSED * i.nused as f64)
-            * march_length
-            * eye_rays
-            * cache(i.ms_cache > 0)
+        (MULTIPLE + MULTIPLE_PER_NUSED * i.nused as f64) * shaded * eye_rays * cache(i.ms_cache > 0)
     } else {
         0.0
     };
@@ -126,13 +128,13 @@ pub(crate) fn estimate_cost(p: &SceneParams, samples_per_ray: Option<f64>) -> Ce
     }
 }
 
-/// Eye-march samples per ray of each distinct scene, probed once (`eye_samples_per_ray`
-/// on 32 × 32 rays); `None` where the scene cannot be loaded here (a dataset not on this
+/// Eye-march samples and gathers per ray of each distinct scene, probed once
+/// (`probe_eye_rays` on 32 × 32 rays); `None` where the scene cannot be loaded here (a dataset not on this
 /// machine), which the estimate then takes as the calibration frame's.
 #[derive(Default)]
 struct Probes {
     caches: Caches,
-    samples: HashMap<String, Option<f64>>,
+    samples: HashMap<String, Option<EyeProbe>>,
     seconds: f64,
 }
 
@@ -140,9 +142,10 @@ impl Probes {
     /// Rays per side of the probe grid.
     const RAYS: u32 = 32;
 
-    fn samples_per_ray(&mut self, cell: &CellSpec) -> Option<f64> {
+    fn probe(&mut self, cell: &CellSpec) -> Option<EyeProbe> {
         let p = &cell.params;
-        // What decides the march: the medium, the view and the step.
+        // What decides the march: the medium, the view and the step (and where the gathers
+        // thin out).
         let key = serde_json::to_string(&(
             &p.volume,
             &p.transfer,
@@ -150,6 +153,7 @@ impl Probes {
             &p.camera,
             p.integrator.stepsize,
             p.integrator.termination,
+            p.integrator.thin_below,
             &cell.base_dir,
         ))
         .ok()?;
@@ -161,7 +165,7 @@ impl Probes {
             .caches
             .scene(p, &cell.base_dir, &SearchPath::from_env())
             .ok()
-            .map(|scene| eye_samples_per_ray(&scene, Self::RAYS));
+            .map(|scene| probe_eye_rays(&scene, Self::RAYS));
         self.seconds += start.elapsed().as_secs_f64();
         self.samples.insert(key, probed);
         probed
@@ -214,7 +218,7 @@ fn print_estimates(
     let mut marches: HashMap<String, f64> = HashMap::new();
     let mut probes = Probes::default();
     for (c, hash) in cells.iter().zip(hashes) {
-        let cost = estimate_cost(&c.params, probes.samples_per_ray(c));
+        let cost = estimate_cost(&c.params, probes.probe(c));
         let key = if exp.share {
             volphot::march_key(&c.params)
         } else {
@@ -327,7 +331,10 @@ mod tests {
         let [w, h] = p.camera.resolution;
         let fixed = (w * h) as f64 * calibration::RECORD
             + p.integrator.volume_photons as f64 * calibration::PHOTON;
-        let at = |samples: f64| estimate_cost(&p, Some(samples));
+        let at = |samples: f64| {
+            let gathers = samples;
+            estimate_cost(&p, Some(EyeProbe { samples, gathers }))
+        };
         let base = at(calibration::SAMPLES_PER_RAY);
         let unprobed = estimate_cost(&p, None);
         assert!(
@@ -338,6 +345,30 @@ mod tests {
         let thin = at(3.0 * calibration::SAMPLES_PER_RAY);
         assert!((thin.march / base.march - 3.0).abs() < 1e-9);
         assert!(((thin.own - fixed) / (base.own - fixed) - 3.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn thinned_gathers_scale_the_shading_costs() {
+        let p = scene();
+        let [w, h] = p.camera.resolution;
+        let fixed = (w * h) as f64 * calibration::RECORD;
+        let samples = calibration::SAMPLES_PER_RAY;
+        let full = estimate_cost(
+            &p,
+            Some(EyeProbe {
+                samples,
+                gathers: samples,
+            }),
+        );
+        let thinned = estimate_cost(
+            &p,
+            Some(EyeProbe {
+                samples,
+                gathers: 0.4 * samples,
+            }),
+        );
+        assert!((thinned.march / full.march - 0.4).abs() < 1e-9);
+        assert!(((thinned.own - fixed) / (full.own - fixed) - 0.4).abs() < 1e-9);
     }
 
     #[test]
