@@ -335,7 +335,8 @@ fn render_writes_layers_png_pfm_and_sidecar() {
 }
 
 /// A cache is an approximation: a cell rendered with one records the error the cache was
-/// measured to have, and the report lists it; cells without a cache record nothing.
+/// measured to have, and the report lists it; cells without a cache record none. Thinning
+/// (on by default) is measured in every cell, and the report gives its largest error.
 #[test]
 fn cached_cells_record_and_report_their_measured_error() {
     let tmp = tempfile::tempdir().unwrap();
@@ -366,8 +367,16 @@ fn cached_cells_record_and_report_their_measured_error() {
         let shadow = integrator["shadow_cache"].as_u64().unwrap() > 0;
         let ms = integrator["ms_cache"].as_u64().unwrap() > 0;
         let error = &record["cache_error"];
-        assert_eq!(error.is_null(), !shadow && !ms, "{record}");
-        if !error.is_null() {
+        assert_eq!(integrator["thin_below"], 0.5, "the default thins");
+        let thinning = &error["thinning"];
+        assert_eq!(thinning["pixels"], 32 * 32, "{error}");
+        for layer in ["single", "multiple"] {
+            let p99 = thinning[layer]["p99"].as_f64().unwrap();
+            assert!(p99 >= 0.0 && p99 <= thinning[layer]["max"].as_f64().unwrap());
+            // Without caches both layers are interpolated behind the front.
+            assert!(shadow || ms || p99 > 0.0, "{layer}: {error}");
+        }
+        if shadow || ms {
             with_error += 1;
             assert!(error["probes"].as_u64().unwrap() > 100, "{error}");
             assert_eq!(error["shadow"].is_null(), !shadow, "{error}");
@@ -383,7 +392,17 @@ fn cached_cells_record_and_report_their_measured_error() {
     assert_eq!(with_error, 3);
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("## Caches"), "{report}");
-    assert_eq!(report.matches("| shadow_cache = 16").count(), 2, "{report}");
+    let (caches, thinning) = report
+        .split_once("## Thinning")
+        .expect("a thinning section");
+    assert_eq!(caches.matches("| shadow_cache = 16").count(), 2, "{report}");
+    assert!(thinning.contains("| multiple | 4 |"), "{report}");
+    assert!(
+        report.contains("4 of 4 finished cell(s) thinned"),
+        "{report}"
+    );
+    let csv = std::fs::read_to_string(out.join("cells.csv")).unwrap();
+    assert!(csv.contains("thinning_p99_multiple [1]"), "{csv}");
 }
 
 #[test]

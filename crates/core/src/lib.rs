@@ -75,9 +75,9 @@ pub use film::{
 };
 pub use integrator::{
     CACHE_TAU_MAX, CacheError, ErrorBound, EyeProbe, MAX_VERTICES, MarchOutput, MarchStats,
-    MsVariant, ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, StopReason, next_radius,
-    probe_eye_rays, progress_rows, render_march, render_march_beams, render_progressive,
-    render_reference,
+    MsVariant, ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, StopReason,
+    ThinningError, next_radius, probe_eye_rays, progress_rows, render_march, render_march_beams,
+    render_progressive, render_reference,
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
 pub use medium::{
@@ -96,12 +96,13 @@ pub use render::{
     march_key, photon_map_key, record, render, render_shared, shared_progress_units,
 };
 pub use scene::{
-    BoxParams, Camera, CameraParams, DEFAULT_ALPHA, Estimate, FilmParams, Incident, InitialRadius,
-    IntegratorParams, Intensity, Light, LightKind, LightParams, MAX_MARCH_STEPS, Method,
-    MitsubaExport, MsEstimator, NormalizeKind, PbrtImport, PhaseParams, PointLight, Quadrature,
-    Scene, SceneParams, ShadowEstimator, SpotFalloff, SpotLight, ThreePointParams, Unmapped,
-    VolumeParams, build_medium, export_mitsuba, import_pbrt, key_at, line_col, load_params,
-    load_volume, locate, locate_error, three_point, toml_error, validate_params,
+    BoxParams, Camera, CameraParams, DEFAULT_ALPHA, DEFAULT_THIN_BELOW, Estimate, FilmParams,
+    Incident, InitialRadius, IntegratorParams, Intensity, Light, LightKind, LightParams,
+    MAX_MARCH_STEPS, Method, MitsubaExport, MsEstimator, NormalizeKind, PbrtImport, PhaseParams,
+    PointLight, Quadrature, Scene, SceneParams, ShadowEstimator, SpotFalloff, SpotLight,
+    ThreePointParams, Unmapped, VolumeParams, build_medium, export_mitsuba, import_pbrt, key_at,
+    line_col, load_params, load_volume, locate, locate_error, three_point, toml_error,
+    validate_params,
 };
 pub use util::{
     cache_dir, hostname, is_stale_temp, memory_budget_bytes, peak_memory_bytes,

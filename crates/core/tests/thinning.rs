@@ -124,3 +124,46 @@ fn a_thinning_threshold_outside_zero_to_one_names_the_key() {
         assert!(err.contains("[0, 1]"), "{bad}: {err}");
     }
 }
+
+#[test]
+fn the_default_thins_and_measures_its_error_on_its_own_pixels() {
+    let base = common::scene(SCENE);
+    assert_eq!(base.integrator().thin_below, volphot::DEFAULT_THIN_BELOW);
+    let map = build_photon_map(&base, &Control::none()).unwrap();
+    let thinned = render(&base, &map, volphot::DEFAULT_THIN_BELOW);
+    let exact = render(&base, &map, 0.0);
+    assert_eq!(
+        exact.cache_errors,
+        vec![None],
+        "nothing to measure without thinning"
+    );
+    let error = thinned.cache_errors[0]
+        .as_ref()
+        .expect("a thinned render measures");
+    assert!(!error.has_cache(), "thinning is not a cache");
+    let t = error.thinning.expect("the thinning error");
+    assert_eq!(
+        (t.thin_below, t.pixels),
+        (volphot::DEFAULT_THIN_BELOW, 32 * 32)
+    );
+    // The probes are the 32 × 32 pixels (2i + 1, 2j + 1) of this 64² frame, traced from the
+    // render's own streams: their values are the two films' values there.
+    let mean3 = |v: Vec3| (v.x + v.y + v.z) / 3.0;
+    for (layer, measured) in [(Layer::Single, t.single), (Layer::Multiple, t.multiple)] {
+        let (a, b) = (thinned.films[0].layer(layer), exact.films[0].layer(layer));
+        let pairs: Vec<(f32, f32)> = (0..32)
+            .flat_map(|j| (0..32).map(move |i| (2 * j + 1) * 64 + 2 * i + 1))
+            .map(|p| (mean3(a[p]), mean3(b[p])))
+            .collect();
+        let measured = measured.expect("a lit layer");
+        assert_eq!(Some(measured), volphot::ErrorBound::of(&pairs), "{layer:?}");
+        assert!(
+            measured.max > 0.0,
+            "{layer:?}: thinning changed no probe pixel"
+        );
+        assert!(
+            measured.mean.abs() < 0.005 && measured.p99 < 0.02,
+            "{layer:?}: {measured:?}"
+        );
+    }
+}

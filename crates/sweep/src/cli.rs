@@ -447,12 +447,12 @@ pub(crate) enum BenchConfig {
     /// The thesis's integrator as v0.1 ran it: shadow rays marched with the step, no caches
     /// (what the others are compared with).
     Marched,
-    /// The default: exact optical depth, filled along each eye ray.
+    /// Exact optical depth, filled along each eye ray; every gather (`thin_below = 0`).
     Exact,
     /// Exact optical depth at every sample (no interpolation at all).
     EverySample,
-    /// The default with `thin_below = 0.5`: gathers and optical-depth fills spaced out
-    /// behind the front, by eye transmittance.
+    /// The default: `exact` with gathers and optical-depth fills spaced out behind the
+    /// front, by eye transmittance (`thin_below = 0.5`).
     Thinned,
     /// The default on one thread (the thread scaling).
     OneThread,

@@ -8,6 +8,11 @@
 //! a gather. Where the exact value is at least 1 % of its largest, the relative error is
 //! taken; the bound reports its 99th percentile and maximum, and the ratio of the sums
 //! (the bias a mean would show).
+//!
+//! Thinning (`thin_below`) is no cache but also trades exactness for speed, so it is
+//! measured the same way at the pixel level: the probe pixels' eye rays are traced again
+//! without it, from the same random streams, and each layer's thinned radiance compared
+//! with the unthinned.
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -17,7 +22,7 @@ use crate::math::{Domain, Rng};
 use crate::medium::Medium;
 use crate::scene::Camera;
 
-/// Eye rays probed per image axis.
+/// Eye rays (pixels) probed per image axis.
 const PROBE_RAYS_PER_AXIS: u32 = 32;
 /// At most this many probe points (every k-th sample beyond).
 const MAX_PROBES: usize = 8192;
@@ -60,14 +65,39 @@ impl ErrorBound {
     }
 }
 
-/// What a render's caches were measured to err by, for one output image.
+/// What a render's caches and its thinning were measured to err by, for one output image.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CacheError {
-    /// Probe points.
+    /// Probe points (0 without caches).
     pub probes: usize,
     /// The direct light with the transmittance cache (`shadow_cache`).
     pub shadow: Option<ErrorBound>,
     /// The multiple-scattering estimate with the scattering cache (`ms_cache`).
+    pub multiple: Option<ErrorBound>,
+    /// The pixels with thinning against the same pixels without it (`thin_below > 0`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thinning: Option<ThinningError>,
+}
+
+impl CacheError {
+    /// Whether a cache (not only thinning) was measured.
+    pub fn has_cache(&self) -> bool {
+        self.shadow.is_some() || self.multiple.is_some()
+    }
+}
+
+/// What thinning by eye transmittance was measured to err by: the radiance of a regular
+/// 32 × 32 subset of pixels (one eye ray each) with the render's `thin_below` against the
+/// same rays with every sample evaluated, layer by layer.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ThinningError {
+    /// The eye transmittance below which the render thinned.
+    pub thin_below: f32,
+    /// Probe pixels.
+    pub pixels: usize,
+    /// The single-scattering layer (`None` when it is off or dark at every probe).
+    pub single: Option<ErrorBound>,
+    /// The variant's multiple-scattering layer.
     pub multiple: Option<ErrorBound>,
 }
 
@@ -81,8 +111,19 @@ impl Marcher<'_> {
     /// `None` entries without caches.
     pub(super) fn cache_errors(&self, camera: &Camera) -> Vec<Option<CacheError>> {
         let images = self.variants.len().max(1);
+        let thinning = self.thinning_errors(camera);
         if !self.uses_caches() {
-            return vec![None; images];
+            return thinning
+                .into_iter()
+                .map(|t| {
+                    t.map(|t| CacheError {
+                        probes: 0,
+                        shadow: None,
+                        multiple: None,
+                        thinning: Some(t),
+                    })
+                })
+                .collect();
         }
         let probes = self.probe_points(camera);
         let shadow = self
@@ -108,35 +149,92 @@ impl Marcher<'_> {
         }
         multiple
             .into_iter()
-            .map(|multiple| {
+            .zip(thinning)
+            .map(|(multiple, thinning)| {
                 Some(CacheError {
                     probes: probes.len(),
                     shadow: shadow.flatten(),
                     multiple,
+                    thinning,
                 })
             })
             .collect()
     }
 
-    /// The marching samples (and view directions) of a regular subset of eye rays, drawn
-    /// from the render's own per-pixel streams.
-    fn probe_points(&self, camera: &Camera) -> Vec<(Vec3, Vec3)> {
+    /// The probe pixels of the image, in a regular grid of at most 32 × 32.
+    fn probe_pixels(camera: &Camera) -> impl Iterator<Item = (u32, u32)> {
         let (w, h) = (camera.width(), camera.height());
-        let mut acc = Accumulator::new(0, 0, 0);
-        let mut points = Vec::new();
-        for j in 0..PROBE_RAYS_PER_AXIS.min(h) {
-            for i in 0..PROBE_RAYS_PER_AXIS.min(w) {
-                let (x, y) = (
-                    (2 * i + 1) * w / (2 * PROBE_RAYS_PER_AXIS.min(w)),
-                    (2 * j + 1) * h / (2 * PROBE_RAYS_PER_AXIS.min(h)),
-                );
-                let pixel = y as u64 * w as u64 + x as u64;
+        let (nx, ny) = (PROBE_RAYS_PER_AXIS.min(w), PROBE_RAYS_PER_AXIS.min(h));
+        (0..ny).flat_map(move |j| {
+            (0..nx).map(move |i| ((2 * i + 1) * w / (2 * nx), (2 * j + 1) * h / (2 * ny)))
+        })
+    }
+
+    /// The thinning error of each variant's image (`None` entries when thinning is off):
+    /// each probe pixel's first eye ray traced with and without thinning, from the same
+    /// random stream the render drew it from.
+    fn thinning_errors(&self, camera: &Camera) -> Vec<Option<ThinningError>> {
+        let images = self.variants.len().max(1);
+        let c = self.settings.thin_below;
+        if c <= 0.0 {
+            return vec![None; images];
+        }
+        let max_group = self
+            .groups
+            .iter()
+            .map(|g| g.gather.len())
+            .max()
+            .unwrap_or(0);
+        let mut acc = Accumulator::new(self.variants.len(), self.groups.len(), max_group);
+        let mut single = Vec::new();
+        let mut multiple = vec![Vec::new(); self.variants.len()];
+        for (x, y) in Self::probe_pixels(camera) {
+            let pixel = y as u64 * camera.width() as u64 + x as u64;
+            let mut layers = [(Vec3::ZERO, vec![]), (Vec3::ZERO, vec![])];
+            for (pass, thin_below) in [c, 0.0].into_iter().enumerate() {
                 let mut rng = Rng::stream2(self.settings.seed, Domain::Pixels, pixel, 0);
                 let [jx, jy] = rng.uniform2();
                 let ray = camera.ray(x as f32 + jx, y as f32 + jy);
-                self.collect_samples(&ray, &mut rng, &mut acc);
-                points.extend(acc.samples.iter().map(|s| (s.x, -ray.direction)));
+                acc.start_pixel();
+                self.trace_thinned_below(&ray, &mut rng, &mut acc, thin_below);
+                layers[pass] = (acc.single, acc.multiple.clone());
             }
+            let [(thinned, thinned_ms), (exact, exact_ms)] = layers;
+            single.push((mean3(thinned), mean3(exact)));
+            for (v, pairs) in multiple.iter_mut().enumerate() {
+                pairs.push((mean3(thinned_ms[v]), mean3(exact_ms[v])));
+            }
+        }
+        let bound = |pairs: &[(f32, f32)]| {
+            Some(ThinningError {
+                thin_below: c,
+                pixels: single.len(),
+                single: self
+                    .settings
+                    .single
+                    .then(|| ErrorBound::of(&single))
+                    .flatten(),
+                multiple: ErrorBound::of(pairs),
+            })
+        };
+        if multiple.is_empty() {
+            return vec![bound(&[])];
+        }
+        multiple.iter().map(|p| bound(p)).collect()
+    }
+
+    /// The marching samples (and view directions) of a regular subset of eye rays, drawn
+    /// from the render's own per-pixel streams.
+    fn probe_points(&self, camera: &Camera) -> Vec<(Vec3, Vec3)> {
+        let mut acc = Accumulator::new(0, 0, 0);
+        let mut points = Vec::new();
+        for (x, y) in Self::probe_pixels(camera) {
+            let pixel = y as u64 * camera.width() as u64 + x as u64;
+            let mut rng = Rng::stream2(self.settings.seed, Domain::Pixels, pixel, 0);
+            let [jx, jy] = rng.uniform2();
+            let ray = camera.ray(x as f32 + jx, y as f32 + jy);
+            self.collect_samples(&ray, &mut rng, &mut acc);
+            points.extend(acc.samples.iter().map(|s| (s.x, -ray.direction)));
         }
         let keep_every = points.len().div_ceil(MAX_PROBES).max(1);
         points.into_iter().step_by(keep_every).collect()

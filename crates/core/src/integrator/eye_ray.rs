@@ -29,12 +29,24 @@ const TAU_TOLERANCE: f32 = 0.05;
 impl Marcher<'_> {
     /// Marches one eye ray; adds its radiance into the accumulator.
     pub(super) fn trace(&self, ray: &Ray, rng: &mut Rng, acc: &mut Accumulator) {
+        self.trace_thinned_below(ray, rng, acc, self.settings.thin_below);
+    }
+
+    /// [`Self::trace`] with thinning below eye transmittance `thin_below` instead of the
+    /// scene's (the thinning error compares both, [`super::cache_error`]).
+    pub(super) fn trace_thinned_below(
+        &self,
+        ray: &Ray,
+        rng: &mut Rng,
+        acc: &mut Accumulator,
+        thin_below: f32,
+    ) {
         self.collect_samples(ray, rng, acc);
         if acc.samples.is_empty() {
             return;
         }
         let wo = -ray.direction;
-        let bands = Bands::new(&acc.samples, self.settings.thin_below);
+        let bands = Bands::new(&acc.samples, thin_below);
         if self.settings.single {
             self.add_single(wo, &bands, rng, acc);
         }

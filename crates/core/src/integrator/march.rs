@@ -127,7 +127,7 @@ impl Accumulator {
     }
 
     /// Clears the per-pixel sums (scratch space and counters stay).
-    fn start_pixel(&mut self) {
+    pub(super) fn start_pixel(&mut self) {
         self.single = Vec3::ZERO;
         self.emission = Vec3::ZERO;
         self.depth_sum = 0.0;
@@ -209,6 +209,26 @@ pub fn render_march(
     variants: &[MsVariant],
     control: &Control<'_>,
 ) -> Result<MarchOutput> {
+    march_measured(scene, maps, variants, control, Measure::Errors)
+}
+
+/// Whether a pass measures what its caches and thinning err by ([`super::cache_error`]).
+/// A progressive iteration does not: its image is one of many averaged, and the error
+/// that matters is the average's against the reference.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Measure {
+    Errors,
+    Skip,
+}
+
+/// [`render_march`], measuring the errors or not.
+pub(super) fn march_measured(
+    scene: &Scene,
+    maps: &[&PhotonMap],
+    variants: &[MsVariant],
+    control: &Control<'_>,
+    measure: Measure,
+) -> Result<MarchOutput> {
     let settings = scene.integrator();
     let medium = scene.medium();
     let own = [MsVariant::of_scene(settings)];
@@ -227,7 +247,7 @@ pub fn render_march(
         ));
     }
     let groups = group_by_map(variants, maps, settings, medium.bounds())?;
-    run_march(scene, variants, groups, None, control)
+    run_march(scene, variants, groups, None, control, measure)
 }
 
 /// Renders a scene with the ray-marching integrator, the multiple-scattering term from the
@@ -238,10 +258,20 @@ pub fn render_march_beams(
     beams: &BeamMap<'_>,
     control: &Control<'_>,
 ) -> Result<MarchOutput> {
+    beams_measured(scene, beams, control, Measure::Errors)
+}
+
+/// [`render_march_beams`], measuring the errors or not.
+pub(super) fn beams_measured(
+    scene: &Scene,
+    beams: &BeamMap<'_>,
+    control: &Control<'_>,
+    measure: Measure,
+) -> Result<MarchOutput> {
     let settings = scene.integrator();
     let own = [MsVariant::of_scene(settings)];
     let variants: &[MsVariant] = if settings.multiple { &own } else { &[] };
-    run_march(scene, variants, Vec::new(), Some(beams), control)
+    run_march(scene, variants, Vec::new(), Some(beams), control, measure)
 }
 
 /// The pass itself: rows in parallel, then the films and counters.
@@ -251,6 +281,7 @@ fn run_march<'a>(
     groups: Vec<MapGroup<'a>>,
     beams: Option<&'a BeamMap<'a>>,
     control: &Control<'_>,
+    measure: Measure,
 ) -> Result<MarchOutput> {
     let start = Instant::now();
     let settings = scene.integrator();
@@ -308,7 +339,10 @@ fn run_march<'a>(
         .filter_map(|g| g.cache.as_ref())
         .map(|c| c.computed.load(Ordering::Relaxed))
         .sum();
-    let cache_errors = marcher.cache_errors(camera);
+    let cache_errors = match measure {
+        Measure::Errors => marcher.cache_errors(camera),
+        Measure::Skip => vec![None; variants.len().max(1)],
+    };
     stats.seconds = start.elapsed().as_secs_f64();
     Ok(MarchOutput {
         films,

@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 
 use super::beam::{beam_masked, beam_radius};
 use super::gather::MsVariant;
-use super::march::{MarchStats, render_march, render_march_beams};
+use super::march::{MarchStats, Measure, beams_measured, march_measured};
 use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
@@ -267,7 +267,7 @@ fn march_iteration(
         let start = Instant::now();
         let beams = BeamMap::new(map, beam_radius(s, radius), scene.medium(), beam_masked(s));
         let build_seconds = start.elapsed().as_secs_f64();
-        let mut out = render_march_beams(&scene, &beams, control)?;
+        let mut out = beams_measured(&scene, &beams, control, Measure::Skip)?;
         // The hierarchy is built for this march alone: its time is the march's.
         out.stats.seconds += build_seconds;
         return Ok((out.films.swap_remove(0), out.stats, beams.mean_radius()));
@@ -278,7 +278,7 @@ fn march_iteration(
         maxdist: radius,
         estimate: s.estimate,
     };
-    let mut out = render_march(&scene, &[map], &[variant], control)?;
+    let mut out = march_measured(&scene, &[map], &[variant], control, Measure::Skip)?;
     Ok((out.films.swap_remove(0), out.stats, radius))
 }
 

@@ -233,7 +233,36 @@ pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
         header: "disco_area [1]",
         value: |r, _| Some(r.disco.area),
     },
+    MetricColumn {
+        key: "thinning_bias_single",
+        header: "thinning_bias_single [1]",
+        value: |r, _| thinning(r, |t| t.single).map(|b| b.mean),
+    },
+    MetricColumn {
+        key: "thinning_p99_single",
+        header: "thinning_p99_single [1]",
+        value: |r, _| thinning(r, |t| t.single).map(|b| b.p99),
+    },
+    MetricColumn {
+        key: "thinning_bias_multiple",
+        header: "thinning_bias_multiple [1]",
+        value: |r, _| thinning(r, |t| t.multiple).map(|b| b.mean),
+    },
+    MetricColumn {
+        key: "thinning_p99_multiple",
+        header: "thinning_p99_multiple [1]",
+        value: |r, _| thinning(r, |t| t.multiple).map(|b| b.p99),
+    },
 ];
+
+/// A layer's thinning error, measured by the render on its probe pixels (cells rendered
+/// with `thin_below > 0`).
+fn thinning(
+    r: &CellRecord,
+    layer: fn(&volphot::ThinningError) -> Option<volphot::ErrorBound>,
+) -> Option<volphot::ErrorBound> {
+    layer(r.cache_error.as_ref()?.thinning.as_ref()?)
+}
 
 /// Whether `key` names a metric column.
 pub(crate) fn is_metric(key: &str) -> bool {

@@ -14,8 +14,9 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use volphot::{
-    CacheError, Control, Film, IntegratorParams, Layer, ReferenceAccumulator, Scene, SearchPath,
-    ShadowEstimator, build_photon_map, load_params, peak_memory_bytes, process_cpu_seconds,
+    CacheError, Control, DEFAULT_THIN_BELOW, Film, IntegratorParams, Layer, ReferenceAccumulator,
+    Scene, SearchPath, ShadowEstimator, ThinningError, build_photon_map, load_params,
+    peak_memory_bytes, process_cpu_seconds,
 };
 
 use crate::analyse::{Agreement, agreement, mse_against_noisy_reference};
@@ -95,11 +96,8 @@ pub(super) fn headline(args: &BenchArgs) -> PathBuf {
     })
 }
 
-/// The eye transmittance below which the `thinned` configuration thins its evaluations.
-const BENCH_THIN_BELOW: f32 = 0.5;
-
 /// The integrator of a configuration, from the scene's own (thinning off unless the
-/// configuration is `thinned`).
+/// configuration is the default: `thinned`, `one-thread` or `efficiency`).
 fn configure(config: BenchConfig, base: &IntegratorParams) -> IntegratorParams {
     let mut s = base.clone();
     s.thin_below = 0.0;
@@ -108,7 +106,7 @@ fn configure(config: BenchConfig, base: &IntegratorParams) -> IntegratorParams {
             s.shadow = ShadowEstimator::March;
             (s.shadow_cache, s.ms_cache) = (0, 0);
         }
-        BenchConfig::Exact | BenchConfig::OneThread => {
+        BenchConfig::Exact => {
             s.shadow = ShadowEstimator::Exact;
             (s.shadow_cache, s.ms_cache) = (0, 0);
         }
@@ -117,14 +115,16 @@ fn configure(config: BenchConfig, base: &IntegratorParams) -> IntegratorParams {
             s.shadow_stride = 0;
             (s.shadow_cache, s.ms_cache) = (0, 0);
         }
-        BenchConfig::Thinned => {
+        BenchConfig::Thinned | BenchConfig::OneThread => {
             s.shadow = ShadowEstimator::Exact;
-            s.thin_below = BENCH_THIN_BELOW;
+            s.thin_below = DEFAULT_THIN_BELOW;
             (s.shadow_cache, s.ms_cache) = (0, 0);
         }
         BenchConfig::Cached => (s.shadow_cache, s.ms_cache) = (128, 128),
         BenchConfig::Efficiency => {
             s.shadow = ShadowEstimator::Exact;
+            s.thin_below = DEFAULT_THIN_BELOW;
+            (s.shadow_cache, s.ms_cache) = (0, 0);
             s.multiple = false;
         }
     }
@@ -261,13 +261,13 @@ fn speedup(measurements: &[Measurement]) -> Option<f64> {
             .find(|m| m.configuration == name)
             .map(|m| m.render_s)
     };
-    let (one, many) = (time("one-thread")?, time("exact")?);
+    let (one, many) = (time("one-thread")?, time("thinned")?);
     let threads = measurements
         .iter()
-        .find(|m| m.configuration == "exact")?
+        .find(|m| m.configuration == "thinned")?
         .threads;
     println!(
-        "thread scaling: exact on {threads} thread(s) is {:.2}× one thread",
+        "thread scaling: the default (thinned) on {threads} thread(s) is {:.2}× one thread",
         one / many
     );
     Some(one / many)
@@ -314,6 +314,25 @@ fn print_measurements(measurements: &[Measurement]) {
                     );
                 }
             }
+            if let Some(t) = &e.thinning {
+                print_thinning(t);
+            }
+        }
+    }
+}
+
+/// The thinning error the render measured on its own probe pixels.
+fn print_thinning(t: &ThinningError) {
+    for (what, b) in [("single", t.single), ("multiple", t.multiple)] {
+        if let Some(b) = b {
+            println!(
+                "{:<13} thinning measured at {} pixels, {what}: bias {:+.2} %, p99 {:.2} %, max {:.1} %",
+                "",
+                t.pixels,
+                100.0 * b.mean,
+                100.0 * b.p99,
+                100.0 * b.max
+            );
         }
     }
 }

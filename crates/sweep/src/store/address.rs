@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use volphot::SceneParams;
+use volphot::{Method, SceneParams};
 
 use super::VERSION;
 
@@ -37,12 +37,30 @@ const ADDRESS_ALPHA: f32 = 4.0 / 7.0;
 /// progressive radius shrink α; where such a render has today's default α it is addressed
 /// with the old default [`ADDRESS_ALPHA`], so the change of default neither orphaned
 /// finished cells nor re-rendered references (an α set explicitly is addressed as set).
-fn addressed(params: &SceneParams) -> SceneParams {
+///
+/// `thin_below` was left out of the parameters when 0 until it became the default (0.5);
+/// an address still leaves it out when 0, so cells rendered without thinning keep their
+/// addresses, and the path tracer, which never thins, is addressed without it.
+fn addressed(params: &SceneParams) -> Result<String> {
     let mut p = params.clone();
     if !p.integrator.iterates() && p.integrator.alpha == volphot::DEFAULT_ALPHA {
         p.integrator.alpha = ADDRESS_ALPHA;
     }
-    p
+    if p.integrator.method == Method::Reference {
+        p.integrator.thin_below = 0.0;
+    }
+    // Removed from the text, not from a `serde_json::Value`: a `Value` sorts its keys, and
+    // the addresses are of the fields in declaration order.
+    let text = serde_json::to_string(&p)?;
+    if p.integrator.thin_below != 0.0 {
+        return Ok(text);
+    }
+    let field = format!(",\"thin_below\":{}", serde_json::to_string(&0.0f32)?);
+    anyhow::ensure!(
+        text.matches(&field).count() == 1,
+        "cannot address a cell: expected one `{field}` in its parameters, found {text}"
+    );
+    Ok(text.replacen(&field, "", 1))
 }
 
 /// The content address of a cell: version, effective parameters, volume (and transfer
@@ -50,7 +68,7 @@ fn addressed(params: &SceneParams) -> SceneParams {
 /// `base` resolves the scene's relative file paths.
 pub(crate) fn cell_hash(params: &SceneParams, base: &Path) -> Result<String> {
     let mut text = format!("volphot-sweep {VERSION}\n");
-    text += &serde_json::to_string(&addressed(params))?;
+    text += &addressed(params)?;
     text += "\n";
     text += &volume_identity(params, base)?;
     if let Some(f) = &params.transfer.file {
@@ -64,11 +82,11 @@ pub(crate) fn cell_hash(params: &SceneParams, base: &Path) -> Result<String> {
 /// The content address of a reference: its scene (with the samples per pixel reset, so a
 /// reference can be refined in place) and the identity of the volume it renders.
 pub(crate) fn reference_hash(params: &SceneParams, volume_identity: &str) -> Result<String> {
-    let mut p = addressed(params);
+    let mut p = params.clone();
     p.integrator.reference_spp = 1;
     let text = format!(
         "volphot-reference {VERSION}\n{}\n{volume_identity}",
-        serde_json::to_string(&p)?,
+        addressed(&p)?,
     );
     Ok(volphot::sha256_bytes(text.as_bytes())[..16].to_string())
 }
@@ -125,6 +143,27 @@ mod tests {
         std::fs::write(&file, [2u8; 8]).unwrap();
         let second = cell_hash(&p, tmp.path()).unwrap();
         assert_ne!(first, second);
+    }
+
+    #[test]
+    fn thinning_off_keeps_the_addresses_it_had_before_it_became_the_default() {
+        let base = Path::new(".");
+        let off = params("[integrator]\nthin_below = 0\n");
+        let json = addressed(&off).unwrap();
+        assert!(!json.contains("thin_below"), "{json}");
+        let on = params("");
+        assert_eq!(on.integrator.thin_below, volphot::DEFAULT_THIN_BELOW);
+        assert_ne!(
+            cell_hash(&off, base).unwrap(),
+            cell_hash(&on, base).unwrap()
+        );
+        // The path tracer never thins: one reference whatever the setting.
+        let reference = |thin: f32| {
+            let mut p = params("[integrator]\nmethod = \"reference\"\n");
+            p.integrator.thin_below = thin;
+            reference_hash(&p, "v").unwrap()
+        };
+        assert_eq!(reference(0.0), reference(volphot::DEFAULT_THIN_BELOW));
     }
 
     #[test]
