@@ -33,9 +33,14 @@ stepsize = 0.001
 "#;
 
 fn render(base: &Scene, map: &PhotonMap, thin_below: f32) -> MarchOutput {
+    render_with(base, map, thin_below, base.integrator().shadow_stride)
+}
+
+fn render_with(base: &Scene, map: &PhotonMap, thin_below: f32, shadow_stride: u32) -> MarchOutput {
     let scene = base
         .with_integrator(IntegratorParams {
             thin_below,
+            shadow_stride,
             ..base.integrator().clone()
         })
         .unwrap();
@@ -131,12 +136,13 @@ fn the_default_thins_and_measures_its_error_on_its_own_pixels() {
     assert_eq!(base.integrator().thin_below, volphot::DEFAULT_THIN_BELOW);
     let map = build_photon_map(&base, &Control::none()).unwrap();
     let thinned = render(&base, &map, volphot::DEFAULT_THIN_BELOW);
-    let exact = render(&base, &map, 0.0);
     assert_eq!(
-        exact.cache_errors,
+        render(&base, &map, 0.0).cache_errors,
         vec![None],
         "nothing to measure without thinning"
     );
+    // Measured against every sample evaluated: no thinning and no shadow-stride fill.
+    let exact = render_with(&base, &map, 0.0, 0);
     let error = thinned.cache_errors[0]
         .as_ref()
         .expect("a thinned render measures");

@@ -17,6 +17,7 @@
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::eye_ray::Evaluation;
 use super::march::{Accumulator, Marcher};
 use crate::math::{Domain, Rng};
 use crate::medium::Medium;
@@ -87,8 +88,13 @@ impl CacheError {
 }
 
 /// What thinning by eye transmittance was measured to err by: the radiance of a regular
-/// 32 × 32 subset of pixels (one eye ray each) with the render's `thin_below` against the
-/// same rays with every sample evaluated, layer by layer.
+/// 32 × 32 subset of pixels (one eye ray each) as the render evaluated them against the
+/// same rays with every sample evaluated (a gather and an exact optical depth at each:
+/// no thinning and no `shadow_stride` interpolation), layer by layer. It is the whole
+/// interpolation error of the render, not thinning's share of it: against the stride's
+/// fill alone, a thinned and an unthinned render differ where the fills pick different
+/// knots, and at σt(d_min) 290 on the engine (a mean free path per voxel) that difference
+/// was the stride's error, not thinning's.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ThinningError {
     /// The eye transmittance below which the render thinned.
@@ -171,8 +177,8 @@ impl Marcher<'_> {
     }
 
     /// The thinning error of each variant's image (`None` entries when thinning is off):
-    /// each probe pixel's first eye ray traced with and without thinning, from the same
-    /// random stream the render drew it from.
+    /// each probe pixel's first eye ray traced as rendered and with every sample evaluated,
+    /// from the same random stream the render drew it from.
     fn thinning_errors(&self, camera: &Camera) -> Vec<Option<ThinningError>> {
         let images = self.variants.len().max(1);
         let c = self.settings.thin_below;
@@ -191,12 +197,15 @@ impl Marcher<'_> {
         for (x, y) in Self::probe_pixels(camera) {
             let pixel = y as u64 * camera.width() as u64 + x as u64;
             let mut layers = [(Vec3::ZERO, vec![]), (Vec3::ZERO, vec![])];
-            for (pass, thin_below) in [c, 0.0].into_iter().enumerate() {
+            for (pass, evaluation) in [Evaluation::Scene, Evaluation::EverySample]
+                .into_iter()
+                .enumerate()
+            {
                 let mut rng = Rng::stream2(self.settings.seed, Domain::Pixels, pixel, 0);
                 let [jx, jy] = rng.uniform2();
                 let ray = camera.ray(x as f32 + jx, y as f32 + jy);
                 acc.start_pixel();
-                self.trace_thinned_below(&ray, &mut rng, &mut acc, thin_below);
+                self.trace_evaluating(&ray, &mut rng, &mut acc, evaluation);
                 layers[pass] = (acc.single, acc.multiple.clone());
             }
             let [(thinned, thinned_ms), (exact, exact_ms)] = layers;

@@ -26,29 +26,44 @@ use crate::scene::{Light, Quadrature, ShadowEstimator};
 /// taken as exact (1 % in transmittance there).
 const TAU_TOLERANCE: f32 = 0.05;
 
+/// Which evaluations an eye ray makes: the scene's, or every one of them (the thinning
+/// error compares both, [`super::cache_error`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Evaluation {
+    /// As the scene sets them: thinned below `thin_below`, optical depth filled by
+    /// `shadow_stride`.
+    Scene,
+    /// A photon-map gather and an exact optical depth at every sample: the uncached
+    /// marcher's own answer, which thinning and the stride approximate.
+    EverySample,
+}
+
 impl Marcher<'_> {
     /// Marches one eye ray; adds its radiance into the accumulator.
     pub(super) fn trace(&self, ray: &Ray, rng: &mut Rng, acc: &mut Accumulator) {
-        self.trace_thinned_below(ray, rng, acc, self.settings.thin_below);
+        self.trace_evaluating(ray, rng, acc, Evaluation::Scene);
     }
 
-    /// [`Self::trace`] with thinning below eye transmittance `thin_below` instead of the
-    /// scene's (the thinning error compares both, [`super::cache_error`]).
-    pub(super) fn trace_thinned_below(
+    /// [`Self::trace`] with the given evaluations.
+    pub(super) fn trace_evaluating(
         &self,
         ray: &Ray,
         rng: &mut Rng,
         acc: &mut Accumulator,
-        thin_below: f32,
+        evaluation: Evaluation,
     ) {
         self.collect_samples(ray, rng, acc);
         if acc.samples.is_empty() {
             return;
         }
+        let (thin_below, stride) = match evaluation {
+            Evaluation::Scene => (self.settings.thin_below, self.settings.shadow_stride),
+            Evaluation::EverySample => (0.0, 0),
+        };
         let wo = -ray.direction;
         let bands = Bands::new(&acc.samples, thin_below);
         if self.settings.single {
-            self.add_single(wo, &bands, rng, acc);
+            self.add_single(wo, &bands, stride as usize, rng, acc);
         }
         if self.settings.multiple {
             match self.beams {
@@ -108,12 +123,20 @@ impl Marcher<'_> {
     }
 
     /// Single scattering of the collected samples, light by light:
-    /// `σs · p · L · T(x → light)` at each sample, weighted.
-    fn add_single(&self, wo: Vec3, bands: &Bands, rng: &mut Rng, acc: &mut Accumulator) {
+    /// `σs · p · L · T(x → light)` at each sample, weighted; exact optical depths are
+    /// filled by `stride` (0: computed at every sample).
+    fn add_single(
+        &self,
+        wo: Vec3,
+        bands: &Bands,
+        stride: usize,
+        rng: &mut Rng,
+        acc: &mut Accumulator,
+    ) {
         let n = acc.samples.len();
         let adaptive = self.settings.shadow == ShadowEstimator::Exact
             && self.shadow_caches.is_none()
-            && self.settings.shadow_stride > 0;
+            && stride > 0;
         for (li, light) in self.lights.iter().enumerate() {
             if adaptive {
                 acc.tau.clear();
@@ -125,7 +148,6 @@ impl Marcher<'_> {
                     tau: &mut acc.tau,
                     tolerance: TAU_TOLERANCE,
                 };
-                let stride = self.settings.shadow_stride as usize;
                 acc.counters.shadow += track.fill(stride, bands) as u64;
             }
             for i in 0..n {
