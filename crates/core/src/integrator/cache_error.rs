@@ -11,15 +11,14 @@
 //!
 //! Thinning (`thin_below`) is no cache but also trades exactness for speed, so it is
 //! measured the same way at the pixel level: the probe pixels' eye rays are traced again
-//! without it, from the same random streams, and each layer's thinned radiance compared
-//! with the unthinned.
+//! with every sample evaluated, from the same random streams, and each layer's radiance
+//! as rendered compared with that.
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::eye_ray::Evaluation;
 use super::march::{Accumulator, Marcher};
-use crate::math::{Domain, Rng};
 use crate::medium::Medium;
 use crate::scene::Camera;
 
@@ -75,7 +74,7 @@ pub struct CacheError {
     pub shadow: Option<ErrorBound>,
     /// The multiple-scattering estimate with the scattering cache (`ms_cache`).
     pub multiple: Option<ErrorBound>,
-    /// The pixels with thinning against the same pixels without it (`thin_below > 0`).
+    /// The probe pixels as rendered against every sample evaluated (`thin_below > 0`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thinning: Option<ThinningError>,
 }
@@ -185,25 +184,16 @@ impl Marcher<'_> {
         if c <= 0.0 {
             return vec![None; images];
         }
-        let max_group = self
-            .groups
-            .iter()
-            .map(|g| g.gather.len())
-            .max()
-            .unwrap_or(0);
-        let mut acc = Accumulator::new(self.variants.len(), self.groups.len(), max_group);
+        let mut acc = self.accumulator();
         let mut single = Vec::new();
         let mut multiple = vec![Vec::new(); self.variants.len()];
         for (x, y) in Self::probe_pixels(camera) {
-            let pixel = y as u64 * camera.width() as u64 + x as u64;
             let mut layers = [(Vec3::ZERO, vec![]), (Vec3::ZERO, vec![])];
             for (pass, evaluation) in [Evaluation::Scene, Evaluation::EverySample]
                 .into_iter()
                 .enumerate()
             {
-                let mut rng = Rng::stream2(self.settings.seed, Domain::Pixels, pixel, 0);
-                let [jx, jy] = rng.uniform2();
-                let ray = camera.ray(x as f32 + jx, y as f32 + jy);
+                let (ray, mut rng) = self.eye_ray(camera, x, y, 0);
                 acc.start_pixel();
                 self.trace_evaluating(&ray, &mut rng, &mut acc, evaluation);
                 layers[pass] = (acc.single, acc.multiple.clone());
@@ -238,10 +228,7 @@ impl Marcher<'_> {
         let mut acc = Accumulator::new(0, 0, 0);
         let mut points = Vec::new();
         for (x, y) in Self::probe_pixels(camera) {
-            let pixel = y as u64 * camera.width() as u64 + x as u64;
-            let mut rng = Rng::stream2(self.settings.seed, Domain::Pixels, pixel, 0);
-            let [jx, jy] = rng.uniform2();
-            let ray = camera.ray(x as f32 + jx, y as f32 + jy);
+            let (ray, mut rng) = self.eye_ray(camera, x, y, 0);
             self.collect_samples(&ray, &mut rng, &mut acc);
             points.extend(acc.samples.iter().map(|s| (s.x, -ray.direction)));
         }

@@ -15,7 +15,7 @@ use super::thinning::knot_cap;
 use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
-use crate::math::{Domain, Rng};
+use crate::math::{Domain, Ray, Rng};
 use crate::medium::Medium;
 use crate::photon::{BeamMap, GatherScratch, PhotonMap};
 use crate::scene::{Camera, IntegratorParams, Light, Scene};
@@ -171,24 +171,39 @@ impl Row {
 }
 
 impl Marcher<'_> {
+    /// Scratch space for tracing this marcher's eye rays.
+    pub(super) fn accumulator(&self) -> Accumulator {
+        let max_group = self.groups.iter().map(|g| g.gather.len()).max();
+        Accumulator::new(
+            self.variants.len(),
+            self.groups.len(),
+            max_group.unwrap_or(0),
+        )
+    }
+
+    /// Eye ray `sample` of pixel `(x, y)`, jittered, and the random stream
+    /// `(seed, pixel, sample)` it goes on with: the render's and every probe's.
+    pub(super) fn eye_ray(&self, camera: &Camera, x: u32, y: u32, sample: u32) -> (Ray, Rng) {
+        let pixel = y as u64 * camera.width() as u64 + x as u64;
+        let mut rng = Rng::stream2(self.settings.seed, Domain::Pixels, pixel, sample as u64);
+        let [jx, jy] = rng.uniform2();
+        (camera.ray(x as f32 + jx, y as f32 + jy), rng)
+    }
+
     /// Renders image row `y`: `spp` jittered eye rays per pixel, each from its own random
     /// stream `(seed, pixel, sample)`.
-    fn render_row(&self, camera: &Camera, y: usize, max_group: usize) -> Row {
-        let width = camera.width() as usize;
+    fn render_row(&self, camera: &Camera, y: u32) -> Row {
+        let width = camera.width();
         let spp = self.settings.spp;
-        let mut row = Row::new(width, self.variants.len());
-        let mut acc = Accumulator::new(self.variants.len(), self.groups.len(), max_group);
+        let mut row = Row::new(width as usize, self.variants.len());
+        let mut acc = self.accumulator();
         for x in 0..width {
-            let pixel = (y * width + x) as u64;
             acc.start_pixel();
             for sample in 0..spp {
-                let mut rng =
-                    Rng::stream2(self.settings.seed, Domain::Pixels, pixel, sample as u64);
-                let [jx, jy] = rng.uniform2();
-                let ray = camera.ray(x as f32 + jx, y as f32 + jy);
+                let (ray, mut rng) = self.eye_ray(camera, x, y, sample);
                 self.trace(&ray, &mut rng, &mut acc);
             }
-            row.store(x, &acc, spp);
+            row.store(x as usize, &acc, spp);
         }
         row.counters = std::mem::take(&mut acc.counters);
         row
@@ -287,7 +302,6 @@ fn run_march<'a>(
     let settings = scene.integrator();
     let medium = scene.medium();
     let bounds = medium.bounds();
-    let max_group = groups.iter().map(|g| g.gather.len()).max().unwrap_or(0);
     let marcher = Marcher {
         medium,
         lights: scene.lights(),
@@ -321,7 +335,7 @@ fn run_march<'a>(
                 // Past the time limit: the remaining rows are skipped and the pass fails.
                 return Row::new(0, 0);
             }
-            let row = marcher.render_row(camera, y, max_group);
+            let row = marcher.render_row(camera, y as u32);
             control.report(rows_done.fetch_add(1, Ordering::Relaxed) + 1);
             row
         })

@@ -14,8 +14,8 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use volphot::{
-    CacheError, Control, DEFAULT_THIN_BELOW, Film, IntegratorParams, Layer, ReferenceAccumulator,
-    Scene, SearchPath, ShadowEstimator, ThinningError, build_photon_map, load_params,
+    CacheError, Control, DEFAULT_THIN_BELOW, ErrorBound, Film, IntegratorParams, Layer,
+    ReferenceAccumulator, Scene, SearchPath, ShadowEstimator, build_photon_map, load_params,
     peak_memory_bytes, process_cpu_seconds,
 };
 
@@ -303,37 +303,30 @@ fn print_measurements(measurements: &[Measurement]) {
         );
         if let Some(e) = &m.cache_error {
             for (what, b) in [("shadow", e.shadow), ("scattering", e.multiple)] {
-                if let Some(b) = b {
-                    println!(
-                        "{:<13} {what} cache measured at {} probes: bias {:+.2} %, p99 {:.2} %, max {:.1} %",
-                        "",
-                        e.probes,
-                        100.0 * b.mean,
-                        100.0 * b.p99,
-                        100.0 * b.max
-                    );
-                }
+                print_bound(&format!("{what} cache measured at {} probes", e.probes), b);
             }
             if let Some(t) = &e.thinning {
-                print_thinning(t);
+                for (what, b) in [("single", t.single), ("multiple", t.multiple)] {
+                    print_bound(
+                        &format!("thinning measured at {} pixels, {what}", t.pixels),
+                        b,
+                    );
+                }
             }
         }
     }
 }
 
-/// The thinning error the render measured on its own probe pixels.
-fn print_thinning(t: &ThinningError) {
-    for (what, b) in [("single", t.single), ("multiple", t.multiple)] {
-        if let Some(b) = b {
-            println!(
-                "{:<13} thinning measured at {} pixels, {what}: bias {:+.2} %, p99 {:.2} %, max {:.1} %",
-                "",
-                t.pixels,
-                100.0 * b.mean,
-                100.0 * b.p99,
-                100.0 * b.max
-            );
-        }
+/// One measured error bound (a cache's or thinning's), under its configuration's row.
+fn print_bound(what: &str, bound: Option<ErrorBound>) {
+    if let Some(b) = bound {
+        println!(
+            "{:<13} {what}: bias {:+.2} %, p99 {:.2} %, max {:.1} %",
+            "",
+            100.0 * b.mean,
+            100.0 * b.p99,
+            100.0 * b.max
+        );
     }
 }
 

@@ -230,11 +230,7 @@ impl Report<'_> {
         if thinned.is_empty() {
             return;
         }
-        let _ = writeln!(
-            s,
-            "## Thinning
-"
-        );
+        let _ = writeln!(s, "## Thinning\n");
         let mut levels: Vec<String> = thinned
             .iter()
             .map(|(_, t)| t.thin_below.to_string())
