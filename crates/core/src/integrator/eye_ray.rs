@@ -7,15 +7,17 @@
 //! at interval midpoints, and interpolated only where the midpoint shows the straight line
 //! holds to within [`TAU_TOLERANCE`]; everywhere else (shadow edges, cone edges, blocked
 //! stretches) every sample gets its exact value. Photon-map estimates are gathered at
-//! every sample: interpolating them everywhere was measured to miss the 2 % per-pixel
-//! bound. Behind the front, where the eye transmittance is below `thin_below`, both are
-//! spaced out by band ([`super::thinning`]).
+//! every sample in front: interpolating them everywhere was measured to miss the 2 %
+//! per-pixel bound. Behind the front, where the eye transmittance is below `thin_below`,
+//! both are spaced out by band ([`super::thinning`]), the estimates checked at midpoints
+//! like the optical depth ([`super::estimate_track`]).
 
 use std::ops::ControlFlow;
 
 use glam::Vec3;
 
 use super::adaptive::{Track, fill_adaptive, fill_span, fraction};
+use super::estimate_track::EstimateTrack;
 use super::gather::{MapGroup, source_factor};
 use super::march::{Accumulator, Marcher, RaySample};
 use super::thinning::{BANDS, Bands};
@@ -175,7 +177,7 @@ impl Marcher<'_> {
     /// the estimates of the thinned bands are interpolated between gathers.
     fn add_multiple(&self, wo: Vec3, bands: &Bands, acc: &mut Accumulator) {
         let n = acc.samples.len();
-        let front = bands.first_thinned().min(n - 1);
+        let front = bands.last_in_front();
         for (gi, group) in self.groups.iter().enumerate() {
             let estimates = &mut acc.estimates[..group.gather.len()];
             for sample in &acc.samples[..=front] {
@@ -190,38 +192,48 @@ impl Marcher<'_> {
         }
     }
 
-    /// The thinned samples of map group `gi` (`acc.estimates` holds the estimate at the
-    /// last sample gathered in front): gathers at the bands' knots, each variant's
-    /// estimate linear in between.
+    /// The thinned samples of map group `gi` (`acc.estimates` holds the estimates at the
+    /// last sample gathered in front), variant by variant: each variant's estimate is
+    /// filled by its own [`EstimateTrack`] (gathers at the bands' knots and checked
+    /// midpoints, linear where the midpoint agrees), so what a variant interpolates does not
+    /// depend on which variants share its map; a sample gathered for one is reused by all.
     fn add_multiple_thinned(&self, gi: usize, bands: &Bands, wo: Vec3, acc: &mut Accumulator) {
         let group = &self.groups[gi];
         let nv = group.gather.len();
+        let n = acc.samples.len();
+        let front = bands.last_in_front();
         let Accumulator {
             samples,
             estimates,
-            knot,
+            gathered,
+            values,
             gather,
             multiple,
             counters,
             ..
         } = acc;
-        for (a, b) in bands.knots(self.gather_knot_cap) {
-            if group.estimate(
-                self.medium,
-                samples[b].x,
+        gathered.start(n, nv, front, &estimates[..nv]);
+        values.clear();
+        values.resize(n, Vec3::ZERO);
+        for (v, &at_front) in estimates[..nv].iter().enumerate() {
+            values[front] = at_front;
+            let mut track = EstimateTrack {
+                marcher: self,
+                group,
                 wo,
-                &mut gather[gi],
-                &mut knot[..nv],
-            ) {
-                counters.gathers += 1;
+                variant: v,
+                samples,
+                gathered,
+                scratch: &mut gather[gi],
+                values,
+                tolerance: 0.0,
+                gathers: 0,
+            };
+            track.fill(bands, self.gather_knot_cap);
+            counters.gathers += track.gathers;
+            for (sample, value) in samples.iter().zip(values.iter()).skip(front + 1) {
+                self.add_variant_source(group, v, sample, *value, multiple);
             }
-            for (i, sample) in samples.iter().enumerate().take(b).skip(a + 1) {
-                let f = fraction(a, b, i);
-                let lerp = |v: usize| estimates[v] + (knot[v] - estimates[v]) * f;
-                self.add_source(group, sample, lerp, multiple);
-            }
-            self.add_source(group, &samples[b], |v| knot[v], multiple);
-            std::mem::swap(estimates, knot);
         }
     }
 
@@ -235,15 +247,30 @@ impl Marcher<'_> {
         estimate: impl Fn(usize) -> Vec3,
         multiple: &mut [Vec3],
     ) {
-        for (v, &vi) in group.variants.iter().enumerate() {
-            let factor = source_factor(
-                self.variants[vi].estimate,
-                self.medium,
-                sample.x,
-                sample.sigma_t,
-            );
-            multiple[vi] += factor * estimate(v) * sample.weight;
+        for v in 0..group.variants.len() {
+            self.add_variant_source(group, v, sample, estimate(v), multiple);
         }
+    }
+
+    /// Adds the source term of the group's `v`-th variant at `sample`, its estimate there
+    /// being `estimate`.
+    #[inline]
+    fn add_variant_source(
+        &self,
+        group: &MapGroup<'_>,
+        v: usize,
+        sample: &RaySample,
+        estimate: Vec3,
+        multiple: &mut [Vec3],
+    ) {
+        let vi = group.variants[v];
+        let factor = source_factor(
+            self.variants[vi].estimate,
+            self.medium,
+            sample.x,
+            sample.sigma_t,
+        );
+        multiple[vi] += factor * estimate * sample.weight;
     }
 
     /// Transmittance from `p` to light `light_index` by the scene's estimator (or its
@@ -315,8 +342,7 @@ impl ShadowTrack<'_> {
     /// in thinned band `b` by `2^b` times the stride and `2^(b+1)` times the tolerance
     /// (module [`super::thinning`]); returns the number of exact evaluations.
     fn fill(&mut self, stride: usize, bands: &Bands) -> usize {
-        let n = self.samples.len();
-        let front = (bands.first_thinned() + 1).min(n);
+        let front = bands.last_in_front() + 1;
         let mut evaluations = fill_adaptive(front, stride, self);
         for b in 1..=BANDS {
             let (start, end) = (bands.band_start(b), bands.band_end(b));

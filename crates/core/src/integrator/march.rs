@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::cache::TransmittanceCache;
 use super::cache_error::CacheError;
+use super::estimate_track::GatheredEstimates;
 use super::gather::{MapGroup, MsVariant, group_by_map};
 use super::thinning::knot_cap;
 use crate::control::Control;
@@ -96,8 +97,10 @@ pub(super) struct Accumulator {
     pub(super) depth_hits: u32,
     pub(super) multiple: Vec<Vec3>,
     pub(super) estimates: Vec<Vec3>,
-    /// The estimates at the next gather of a thinned band (module [`super::thinning`]).
-    pub(super) knot: Vec<Vec3>,
+    /// The estimates gathered behind the front of the current eye ray, and one variant's
+    /// estimate at each of its samples (module [`super::estimate_track`]).
+    pub(super) gathered: GatheredEstimates,
+    pub(super) values: Vec<Vec3>,
     /// One gather scratch per map group (its candidates belong to that group's map).
     pub(super) gather: Vec<GatherScratch>,
     pub(super) counters: RowCounters,
@@ -117,7 +120,8 @@ impl Accumulator {
             depth_hits: 0,
             multiple: vec![Vec3::ZERO; variants],
             estimates: vec![Vec3::ZERO; max_group],
-            knot: vec![Vec3::ZERO; max_group],
+            gathered: GatheredEstimates::default(),
+            values: Vec::new(),
             gather: vec![GatherScratch::default(); groups],
             counters: RowCounters::default(),
             samples: Vec::new(),

@@ -29,6 +29,7 @@ mod adaptive;
 mod beam;
 mod cache;
 mod cache_error;
+mod estimate_track;
 mod eye_ray;
 mod gather;
 mod march;

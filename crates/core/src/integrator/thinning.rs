@@ -9,9 +9,10 @@
 //! transmittance is below `c` fall into bands `[c/2^b, c/2^(b−1))`, `b = 1 … BANDS` (the
 //! last band reaches down to `termination`), and in band `b`:
 //!
-//! * the photon-map estimate is gathered at every `2^b`-th sample (at most
-//!   [`KNOT_VOXELS`] voxels apart, whatever the step) and linear in between — σt and the
-//!   albedo stay each sample's own;
+//! * the photon-map estimate is gathered at every `2^(b+1)`-th sample and at each such
+//!   interval's midpoint (so at most [`KNOT_VOXELS`] voxels apart, whatever the step), and
+//!   is linear in between where the midpoint agrees with the line, else gathered closer
+//!   ([`super::estimate_track`]) — σt and the albedo stay each sample's own;
 //! * the optical depth to each light is filled with `2^b` times the scene's
 //!   `shadow_stride` and `2^(b+1)` times the tolerance ([`super::adaptive`]).
 //!
@@ -58,9 +59,10 @@ impl Bands {
         Bands { starts }
     }
 
-    /// The first thinned sample (the sample count when none is).
-    pub(super) fn first_thinned(&self) -> usize {
-        self.starts[0]
+    /// The last sample evaluated as in front: the first thinned sample (the start of band
+    /// 1, itself exact), or the last sample when none is thinned (0 without samples).
+    pub(super) fn last_in_front(&self) -> usize {
+        self.starts[0].min(self.starts[BANDS].saturating_sub(1))
     }
 
     /// The band of sample `i`: 0 in front, else `1 ..= BANDS`.
@@ -84,13 +86,13 @@ impl Bands {
         self.starts[b - 1]
     }
 
-    /// The gathers behind the front, as intervals `(a, b)` between successive gathers: the
-    /// first `a` is the last sample gathered in front, each `b` is gathered and the samples
-    /// between are interpolated; spacing `2^band` (at most `cap`), ending at every band's
-    /// end.
+    /// The gather intervals behind the front where the estimate is smooth, `(a, b)`: the
+    /// first `a` is the last sample gathered in front, each `b` is gathered, and so is the
+    /// midpoint of each interval longer than 2 (the check, [`super::adaptive`]); spacing
+    /// [`gather_stride`], ending at every band's end.
     pub(super) fn knots(&self, cap: usize) -> impl Iterator<Item = (usize, usize)> + '_ {
         let n = self.starts[BANDS];
-        let mut a = self.first_thinned().min(n.saturating_sub(1));
+        let mut a = self.last_in_front();
         std::iter::from_fn(move || {
             if a + 1 >= n {
                 return None;
@@ -103,16 +105,18 @@ impl Bands {
         })
     }
 
-    /// The gathers an eye ray with these bands makes per map.
+    /// The gathers an eye ray with these bands makes per map where the estimate is smooth
+    /// (where a midpoint disagrees its interval is halved and takes more).
     pub(super) fn gathers(&self, cap: usize) -> usize {
-        let n = self.starts[BANDS];
-        // Every sample up to the first thinned one, then one per interval.
-        let front = if n == 0 {
-            0
-        } else {
-            self.first_thinned().min(n - 1) + 1
-        };
-        front + self.knots(cap).count()
+        if self.starts[BANDS] == 0 {
+            return 0;
+        }
+        // Every sample up to the first thinned one, then each knot and checked midpoint.
+        let knots: usize = self
+            .knots(cap)
+            .map(|(a, b)| if b - a >= 2 { 2 } else { 1 })
+            .sum();
+        self.last_in_front() + 1 + knots
     }
 }
 
@@ -121,9 +125,11 @@ pub(super) fn knot_cap(voxel: f32, stepsize: f32) -> usize {
     (KNOT_VOXELS * voxel / stepsize).floor().max(1.0) as usize
 }
 
-/// The gather spacing in band `b`, in samples: `2^b`, at most `cap`.
+/// The gather interval in band `b`, in samples: `2^(b+1)`, at most `2 · cap`. Its midpoint
+/// is gathered too (the check), so where the estimate is smooth the gathers are `2^b`
+/// samples apart and never more than `cap`.
 pub(super) fn gather_stride(b: usize, cap: usize) -> usize {
-    (1usize << b).min(cap)
+    (2usize << b).min(2 * cap)
 }
 
 #[cfg(test)]
@@ -155,7 +161,7 @@ mod tests {
         // below 1/32 → 5.
         let of: Vec<usize> = (0..t.len()).map(|i| bands.band_of(i)).collect();
         assert_eq!(of, [0, 0, 1, 1, 2, 3, 4, 5]);
-        assert_eq!(bands.first_thinned(), 2);
+        assert_eq!(bands.last_in_front(), 2);
         assert_eq!((bands.band_start(1), bands.band_end(1)), (2, 4));
         assert_eq!((bands.band_start(5), bands.band_end(5)), (7, 7));
     }
@@ -163,14 +169,14 @@ mod tests {
     #[test]
     fn no_threshold_thins_nothing() {
         let bands = Bands::new(&samples(&[0.0, 5.0, 9.0]), 0.0);
-        assert_eq!(bands.first_thinned(), 3);
+        assert_eq!(bands.last_in_front(), 2, "the last sample");
         assert!((0..3).all(|i| bands.band_of(i) == 0));
         assert_eq!(bands.knots(8).count(), 0);
         assert_eq!(bands.gathers(8), 3);
     }
 
     #[test]
-    fn knots_double_their_spacing_per_band_and_end_on_band_ends() {
+    fn gather_intervals_double_per_band_and_end_on_band_ends() {
         // 4 samples in front (transmittance ≥ 0.5), then 8 in each band 1…5 by halving.
         let mut taus = vec![0.0f32; 4];
         for b in 1..=5 {
@@ -179,39 +185,31 @@ mod tests {
         }
         let bands = Bands::new(&samples(&taus), 0.5);
         let knots: Vec<(usize, usize)> = bands.knots(31).collect();
-        // Band 1 = samples 4..12 (spacing 2), band 2 = 12..20 (4), band 3 = 20..28 (8),
-        // band 4 = 28..36 (16, cut at the band's end), band 5 = 36..44 (to the last sample).
+        // Band 1 = samples 4..12 (intervals of 4), band 2 = 12..20 (8), bands 3 … 5 (16, 32,
+        // 64) cut at their ends, band 5 at the last sample.
         assert_eq!(
             knots,
-            [
-                (4, 6),
-                (6, 8),
-                (8, 10),
-                (10, 12),
-                (12, 16),
-                (16, 20),
-                (20, 28),
-                (28, 36),
-                (36, 43)
-            ]
+            [(4, 8), (8, 12), (12, 20), (20, 28), (28, 36), (36, 43)]
         );
-        // Samples 0..=4 in front, then one gather per interval.
-        assert_eq!(bands.gathers(31), 5 + 9);
-        let cap2: Vec<(usize, usize)> = bands.knots(2).skip(4).take(2).collect();
-        assert_eq!(cap2, [(12, 14), (14, 16)]);
+        // Samples 0..=4 in front, then a knot and a checked midpoint per interval.
+        assert_eq!(bands.gathers(31), 5 + 2 * 6);
+        // At most 2 samples between gathers: intervals of 4.
+        let cap2: Vec<(usize, usize)> = bands.knots(2).skip(2).take(2).collect();
+        assert_eq!(cap2, [(12, 16), (16, 20)]);
     }
 
     #[test]
-    fn the_gather_spacing_doubles_per_band_up_to_its_length_cap() {
-        // The foot: voxels of 1/256, step 0.0005 → at most 31 samples apart.
+    fn the_gather_interval_doubles_per_band_up_to_twice_its_length_cap() {
+        // The foot: voxels of 1/256, step 0.0005 → gathers at most 31 samples apart, so
+        // intervals (a knot and its checked midpoint) of at most 62.
         let cap = knot_cap(1.0 / 256.0, 0.0005);
         assert_eq!(cap, 31);
-        assert_eq!(gather_stride(1, cap), 2);
-        assert_eq!(gather_stride(4, cap), 16);
-        assert_eq!(gather_stride(5, cap), 31);
+        assert_eq!(gather_stride(1, cap), 4);
+        assert_eq!(gather_stride(4, cap), 32);
+        assert_eq!(gather_stride(5, cap), 62);
         // A coarse step: 4 voxels are 3 steps of 0.005.
-        assert_eq!(gather_stride(5, knot_cap(1.0 / 256.0, 0.005)), 3);
-        // A step longer than the cap: every sample is a knot.
-        assert_eq!(gather_stride(3, knot_cap(0.001, 0.01)), 1);
+        assert_eq!(gather_stride(5, knot_cap(1.0 / 256.0, 0.005)), 6);
+        // A step longer than the cap: intervals of 2, so every sample is gathered.
+        assert_eq!(gather_stride(3, knot_cap(0.001, 0.01)), 2);
     }
 }
