@@ -17,7 +17,8 @@ pub struct EyeProbe {
     /// Marching samples (σt > 0).
     pub samples: f64,
     /// Photon-map gathers per map: the samples, or fewer where `thin_below` spaces them out
-    /// behind the front.
+    /// behind the front (counted as where the estimate is smooth: where a checked midpoint
+    /// disagrees, a render gathers more).
     pub gathers: f64,
 }
 
