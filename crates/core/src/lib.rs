@@ -96,12 +96,12 @@ pub use render::{
     march_key, photon_map_key, record, render, render_shared, shared_progress_units,
 };
 pub use scene::{
-    BoxParams, Camera, CameraParams, DEFAULT_ALPHA, DEFAULT_THIN_BELOW, Estimate, FilmParams,
-    Incident, InitialRadius, IntegratorParams, Intensity, Light, LightKind, LightParams,
-    MAX_MARCH_STEPS, Method, MitsubaExport, MsEstimator, NormalizeKind, PbrtImport, PhaseParams,
-    PointLight, Quadrature, Scene, SceneParams, ShadowEstimator, SpotFalloff, SpotLight,
-    ThreePointParams, Unmapped, VolumeParams, build_medium, export_mitsuba, import_pbrt, key_at,
-    line_col, load_params, load_volume, locate, locate_error, three_point, toml_error,
+    BoxParams, Camera, CameraParams, DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW,
+    Estimate, FilmParams, Incident, InitialRadius, IntegratorParams, Intensity, Light, LightKind,
+    LightParams, MAX_MARCH_STEPS, Method, MitsubaExport, MsEstimator, NormalizeKind, PbrtImport,
+    PhaseParams, PointLight, Quadrature, Scene, SceneParams, ShadowEstimator, SpotFalloff,
+    SpotLight, ThreePointParams, Unmapped, VolumeParams, build_medium, export_mitsuba, import_pbrt,
+    key_at, line_col, load_params, load_volume, locate, locate_error, three_point, toml_error,
     validate_params,
 };
 pub use util::{

@@ -276,6 +276,7 @@ pub fn photon_map_key(params: &SceneParams) -> String {
     i.termination = 0.0;
     i.shadow_cache = 0;
     i.ms_cache = 0;
+    i.shadow_tolerance = 0.0;
     i.reference_spp = 1;
     p.camera.resolution = [1, 1];
     p.camera.fov = 1.0;

@@ -5,7 +5,7 @@
 //! optical depth to each light can be filled along the ray ([`super::adaptive`]): with the
 //! exact estimator and `shadow_stride = s > 0` it is computed at every `s`-th sample and
 //! at interval midpoints, and interpolated only where the midpoint shows the straight line
-//! holds to within [`TAU_TOLERANCE`]; everywhere else (shadow edges, cone edges, blocked
+//! holds to within `shadow_tolerance`; everywhere else (shadow edges, cone edges, blocked
 //! stretches) every sample gets its exact value. Photon-map estimates are gathered at
 //! every sample in front: interpolating them everywhere was measured to miss the 2 %
 //! per-pixel bound. Behind the front, where the eye transmittance is below `thin_below`,
@@ -23,10 +23,6 @@ use super::march::{Accumulator, Marcher, RaySample};
 use super::thinning::{BANDS, Bands};
 use crate::math::{Ray, Rng};
 use crate::scene::{Light, Quadrature, ShadowEstimator};
-
-/// Below this optical-depth difference at the checked midpoint an interpolated shadow is
-/// taken as exact (1 % in transmittance there).
-const TAU_TOLERANCE: f32 = 0.05;
 
 /// Which evaluations an eye ray makes: the scene's, or every one of them (the thinning
 /// error compares both, [`super::cache_error`]).
@@ -148,7 +144,7 @@ impl Marcher<'_> {
                     light,
                     samples: &acc.samples,
                     tau: &mut acc.tau,
-                    tolerance: TAU_TOLERANCE,
+                    tolerance: self.settings.shadow_tolerance,
                 };
                 acc.counters.shadow += track.fill(stride, bands) as u64;
             }
@@ -338,20 +334,21 @@ struct ShadowTrack<'a> {
 }
 
 impl ShadowTrack<'_> {
-    /// Fills the optical depth at every sample: in front by `stride` and [`TAU_TOLERANCE`],
+    /// Fills the optical depth at every sample: in front by `stride` and `shadow_tolerance`,
     /// in thinned band `b` by `2^b` times the stride and `2^(b+1)` times the tolerance
     /// (module [`super::thinning`]); returns the number of exact evaluations.
     fn fill(&mut self, stride: usize, bands: &Bands) -> usize {
+        let tolerance = self.tolerance;
         let front = bands.last_in_front() + 1;
         let mut evaluations = fill_adaptive(front, stride, self);
         for b in 1..=BANDS {
             let (start, end) = (bands.band_start(b), bands.band_end(b));
             if start < end {
-                self.tolerance = TAU_TOLERANCE * (2u32 << b) as f32;
+                self.tolerance = tolerance * (2u32 << b) as f32;
                 evaluations += fill_span(start, end + 1, stride << b, self);
             }
         }
-        self.tolerance = TAU_TOLERANCE;
+        self.tolerance = tolerance;
         evaluations
     }
 }

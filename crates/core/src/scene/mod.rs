@@ -58,8 +58,8 @@ pub use params::{
 };
 pub use pbrt::{PbrtImport, Unmapped, import_pbrt};
 pub use settings::{
-    DEFAULT_ALPHA, DEFAULT_THIN_BELOW, Estimate, FilmParams, InitialRadius, IntegratorParams,
-    Method, MsEstimator, Quadrature, ShadowEstimator,
+    DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW, Estimate, FilmParams,
+    InitialRadius, IntegratorParams, Method, MsEstimator, Quadrature, ShadowEstimator,
 };
 
 use crate::error::Result;

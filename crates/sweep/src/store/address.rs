@@ -32,15 +32,20 @@ pub(crate) fn volume_identity(params: &SceneParams, base: &Path) -> Result<Strin
 /// `alpha` study moved it to 0.3).
 const ADDRESS_ALPHA: f32 = 4.0 / 7.0;
 
+/// The shadow fill's tolerance before it was a setting (`shadow_tolerance`): addresses
+/// leave the setting out at this value.
+const ADDRESS_SHADOW_TOLERANCE: f32 = 0.05;
+
 /// The parameters an address is taken over. A render whose estimator does not iterate
 /// (the path tracer, the point estimate, no multiple scattering) cannot depend on the
 /// progressive radius shrink α; where such a render has today's default α it is addressed
 /// with the old default [`ADDRESS_ALPHA`], so the change of default neither orphaned
 /// finished cells nor re-rendered references (an α set explicitly is addressed as set).
 ///
-/// `thin_below` was left out of the parameters when 0 until it became the default (0.5);
-/// an address still leaves it out when 0, so cells rendered without thinning keep their
-/// addresses, and the path tracer, which never thins, is addressed without it.
+/// `thin_below` was left out of the parameters when 0 until it became the default (0.5),
+/// and `shadow_tolerance` did not exist until it became a setting (its value was 0.05): an
+/// address leaves each out at that old value, so cells rendered with it keep their
+/// addresses, and the path tracer, which neither thins nor fills, is addressed without them.
 fn addressed(params: &SceneParams) -> Result<String> {
     let mut p = params.clone();
     if !p.integrator.iterates() && p.integrator.alpha == volphot::DEFAULT_ALPHA {
@@ -48,14 +53,23 @@ fn addressed(params: &SceneParams) -> Result<String> {
     }
     if p.integrator.method == Method::Reference {
         p.integrator.thin_below = 0.0;
+        p.integrator.shadow_tolerance = ADDRESS_SHADOW_TOLERANCE;
     }
     // Removed from the text, not from a `serde_json::Value`: a `Value` sorts its keys, and
     // the addresses are of the fields in declaration order.
-    let text = serde_json::to_string(&p)?;
-    if p.integrator.thin_below != 0.0 {
-        return Ok(text);
+    let mut text = serde_json::to_string(&p)?;
+    if p.integrator.shadow_tolerance == ADDRESS_SHADOW_TOLERANCE {
+        text = without_field(&text, "shadow_tolerance", ADDRESS_SHADOW_TOLERANCE)?;
     }
-    let field = format!(",\"thin_below\":{}", serde_json::to_string(&0.0f32)?);
+    if p.integrator.thin_below == 0.0 {
+        text = without_field(&text, "thin_below", 0.0)?;
+    }
+    Ok(text)
+}
+
+/// `text` without its one `,"key":value` field.
+fn without_field(text: &str, key: &str, value: f32) -> Result<String> {
+    let field = format!(",\"{key}\":{}", serde_json::to_string(&value)?);
     anyhow::ensure!(
         text.matches(&field).count() == 1,
         "cannot address a cell: expected one `{field}` in its parameters, found {text}"
@@ -164,6 +178,40 @@ mod tests {
             reference_hash(&p, "v").unwrap()
         };
         assert_eq!(reference(0.0), reference(volphot::DEFAULT_THIN_BELOW));
+    }
+
+    #[test]
+    fn the_old_shadow_tolerance_keeps_the_addresses_it_had_before_it_was_a_setting() {
+        let base = Path::new(".");
+        let old = params("[integrator]\nshadow_tolerance = 0.05\nthin_below = 0\n");
+        let json = addressed(&old).unwrap();
+        assert!(!json.contains("shadow_tolerance"), "{json}");
+        assert!(!json.contains("thin_below"), "{json}");
+        assert!(json.contains("\"shadow_stride\":8"), "{json}");
+        let new = params("");
+        assert_eq!(
+            new.integrator.shadow_tolerance,
+            volphot::DEFAULT_SHADOW_TOLERANCE
+        );
+        assert!(
+            addressed(&new)
+                .unwrap()
+                .contains("\"shadow_tolerance\":0.025")
+        );
+        assert_ne!(
+            cell_hash(&old, base).unwrap(),
+            cell_hash(&new, base).unwrap()
+        );
+        // The path tracer never fills optical depths along an eye ray.
+        let reference = |tolerance: f32| {
+            let mut p = params("[integrator]\nmethod = \"reference\"\n");
+            p.integrator.shadow_tolerance = tolerance;
+            reference_hash(&p, "v").unwrap()
+        };
+        assert_eq!(
+            reference(0.05),
+            reference(volphot::DEFAULT_SHADOW_TOLERANCE)
+        );
     }
 
     #[test]
