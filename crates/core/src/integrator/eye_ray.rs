@@ -335,7 +335,8 @@ struct ShadowTrack<'a> {
 
 impl ShadowTrack<'_> {
     /// Fills the optical depth at every sample: in front by `stride` and `shadow_tolerance`,
-    /// in thinned band `b` by `2^b` times the stride and `2^(b+1)` times the tolerance
+    /// in thinned band `b` by `2^b` times the stride and the tolerance divided by the band's
+    /// largest eye transmittance, `2^(b−1) / thin_below` times it
     /// (module [`super::thinning`]); returns the number of exact evaluations.
     fn fill(&mut self, stride: usize, bands: &Bands) -> usize {
         let tolerance = self.tolerance;
@@ -344,7 +345,7 @@ impl ShadowTrack<'_> {
         for b in 1..=BANDS {
             let (start, end) = (bands.band_start(b), bands.band_end(b));
             if start < end {
-                self.tolerance = tolerance * (2u32 << b) as f32;
+                self.tolerance = tolerance * bands.shadow_tolerance_factor(b);
                 evaluations += fill_span(start, end + 1, stride << b, self);
             }
         }

@@ -14,7 +14,9 @@
 //!   is linear in between where the midpoint agrees with the line, else gathered closer
 //!   ([`super::estimate_track`]) — σt and the albedo stay each sample's own;
 //! * the optical depth to each light is filled with `2^b` times the scene's
-//!   `shadow_stride` and `2^(b+1)` times the tolerance ([`super::adaptive`]).
+//!   `shadow_stride` and the scene's `shadow_tolerance` divided by the band's largest eye
+//!   transmittance, `c / 2^(b−1)` ([`super::adaptive`]): an optical-depth error δτ reaches
+//!   the pixel scaled by the eye transmittance, so no band may add more than the front.
 //!
 //! The spacing thus grows as the weight shrinks, so each band's share of the error stays
 //! about the same. Every band boundary is an exact evaluation. The samples in front of the
@@ -37,10 +39,12 @@ pub(super) const KNOT_VOXELS: f32 = 4.0;
 pub(super) const BANDS: usize = 5;
 
 /// The bands of one eye ray's samples.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Bands {
     /// `starts[b − 1]` is the first sample of band `b`; `starts[BANDS]` is the sample count.
     starts: [usize; BANDS + 1],
+    /// `thin_below`: band `b`'s samples have eye transmittance below `c / 2^(b−1)`.
+    c: f32,
 }
 
 impl Bands {
@@ -56,7 +60,7 @@ impl Bands {
                 *start = samples.partition_point(|s| s.tau_start <= tau);
             }
         }
-        Bands { starts }
+        Bands { starts, c }
     }
 
     /// The last sample evaluated as in front: the first thinned sample (the start of band
@@ -79,6 +83,14 @@ impl Bands {
             .copied()
             .unwrap_or(n)
             .min(n.saturating_sub(1))
+    }
+
+    /// The factor on the front's shadow tolerance in band `b ≥ 1`: `2^(b−1) / c`, the inverse
+    /// of the band's largest eye transmittance. An optical-depth error δτ at a sample
+    /// changes the pixel by about its eye transmittance times δτ (relative to the sample's
+    /// source term), so each band may add at most what the front adds.
+    pub(super) fn shadow_tolerance_factor(&self, b: usize) -> f32 {
+        (1u32 << (b - 1)) as f32 / self.c
     }
 
     /// The first sample of band `b ≥ 1`.
@@ -164,6 +176,20 @@ mod tests {
         assert_eq!(bands.last_in_front(), 2);
         assert_eq!((bands.band_start(1), bands.band_end(1)), (2, 4));
         assert_eq!((bands.band_start(5), bands.band_end(5)), (7, 7));
+    }
+
+    #[test]
+    fn a_bands_shadow_tolerance_times_its_largest_eye_transmittance_is_the_fronts() {
+        let t = samples(&[0.0; 4]);
+        for c in [0.1, 0.5, 0.9, 1.0] {
+            let bands = Bands::new(&t, c);
+            for b in 1..=BANDS {
+                let largest = c / (1u32 << (b - 1)) as f32;
+                let budget = bands.shadow_tolerance_factor(b) * largest;
+                assert!((budget - 1.0).abs() < 1e-6, "c {c}, band {b}: {budget}");
+                assert!(bands.shadow_tolerance_factor(b) >= 1.0, "c {c}, band {b}");
+            }
+        }
     }
 
     #[test]
