@@ -183,8 +183,36 @@ fn phantom_grid_runs_reports_and_resumes() {
     record["image"]["gradient_total"] = serde_json::json!(0.0);
     std::fs::write(&records[0], serde_json::to_string(&record).unwrap()).unwrap();
     std::fs::remove_file(out.join("report.md")).unwrap();
+    // Difference images of addresses the plan no longer has (a cell whose address moved)
+    // are removed by the next report; the current cells' are kept.
+    let figures = out.join("figures");
+    std::fs::create_dir_all(figures.join("compare7")).unwrap();
+    let orphans = [
+        figures.join("diff").join("0123456789abcdef_amplified.png"),
+        figures.join("diff").join("0123456789abcdef_compare.png"),
+        figures
+            .join("compare7")
+            .join("0123456789abcdef_vs_fedcba9876543210.png"),
+    ];
+    for orphan in &orphans {
+        std::fs::copy(records[0].with_file_name("total.png"), orphan).unwrap();
+    }
     run_ok(sweep().arg("report").arg(&out));
     assert!(out.join("report.md").is_file());
+    assert!(
+        orphans.iter().all(|o| !o.exists()),
+        "orphaned figures removed"
+    );
+    assert!(
+        !figures.join("compare7").exists(),
+        "empty comparison folder removed"
+    );
+    for hash in column(&headers, &rows, "hash") {
+        for kind in ["compare", "amplified", "signed"] {
+            let kept = figures.join("diff").join(format!("{hash}_{kind}.png"));
+            assert!(kept.is_file(), "{}", kept.display());
+        }
+    }
     let refreshed: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&records[0]).unwrap()).unwrap();
     assert_eq!(refreshed["image"], fresh);

@@ -1,7 +1,10 @@
 //! Difference images: single vs single + multiple scattering for every cell (the thesis's
 //! amplified difference, Fig. 18), and pairs of cells that differ only in one axis.
 
-use anyhow::Result;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
 use glam::Vec3;
 use volphot::{Film, Layer};
 
@@ -110,6 +113,67 @@ fn layer_difference(
     let path = dir.join(format!("{}_compare.png", c.planned.hash));
     sheet.write_png(&path)?;
     Ok(path)
+}
+
+/// Removes the difference images this report did not write, and comparison folders left
+/// empty: a cell whose address moved (a changed plan or renderer) leaves the figures of its
+/// old address behind, which no report shows and a committed report should not carry.
+pub(crate) fn remove_unlisted(out: &OutputDir, figures: &Figures) -> Result<()> {
+    let written: BTreeSet<PathBuf> = figures
+        .diffs
+        .iter()
+        .flat_map(|(_, sheet)| written_with(sheet))
+        .collect();
+    let Ok(entries) = std::fs::read_dir(out.figures()) else {
+        return Ok(());
+    };
+    let folders = entries
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.is_dir() && is_difference_folder(p));
+    for folder in folders {
+        let listing =
+            std::fs::read_dir(&folder).with_context(|| format!("listing {}", folder.display()))?;
+        for file in listing.flatten().map(|e| e.path()) {
+            let hidden = file
+                .file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with('.'));
+            if !hidden && file.extension().is_some_and(|e| e == "png") && !written.contains(&file) {
+                std::fs::remove_file(&file)
+                    .with_context(|| format!("removing {}", file.display()))?;
+            }
+        }
+        if std::fs::read_dir(&folder).is_ok_and(|mut d| d.next().is_none()) {
+            std::fs::remove_dir(&folder)
+                .with_context(|| format!("removing {}", folder.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// The files written with a listed figure: a layer difference's sheet
+/// (`<hash>_compare.png`) comes with its amplified and signed differences.
+fn written_with(sheet: &Path) -> Vec<PathBuf> {
+    let name = sheet.file_name().map(|n| n.to_string_lossy().into_owned());
+    match name.as_deref().and_then(|n| n.strip_suffix("_compare.png")) {
+        Some(hash) => ["compare", "amplified", "signed"]
+            .iter()
+            .map(|kind| sheet.with_file_name(format!("{hash}_{kind}.png")))
+            .collect(),
+        None => vec![sheet.to_path_buf()],
+    }
+}
+
+/// `figures/diff` and `figures/compare<N>`, the folders this module writes.
+fn is_difference_folder(path: &Path) -> bool {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
+    match name.as_deref() {
+        Some("diff") => true,
+        Some(n) => n
+            .strip_prefix("compare")
+            .is_some_and(|i| !i.is_empty() && i.bytes().all(|b| b.is_ascii_digit())),
+        None => false,
+    }
 }
 
 /// Cells differing only in one axis: value `a` against value `b`.

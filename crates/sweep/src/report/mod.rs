@@ -83,6 +83,7 @@ pub(crate) fn build_report(out: &OutputDir) -> Result<PathBuf> {
     sheets::contact_sheets(out, &plan, &cells, &experiment, &mut figures)?;
     diffs::layer_differences(out, &cells, &experiment, &mut figures)?;
     diffs::axis_comparisons(out, &plan, &cells, &experiment, &mut figures)?;
+    diffs::remove_unlisted(out, &figures)?;
     plots::plots(out, &plan, &cells, &experiment, &mut figures)?;
     let markdown = markdown::Report {
         out,
