@@ -96,6 +96,9 @@ pub struct SpotLight {
     beam_width: f32,
     cos_cone: f32,
     cos_beam: f32,
+    /// A cosine above which `acos` surely gives an angle inside the beam: the linear
+    /// falloff skips its `acos` there.
+    cos_surely_in_beam: f32,
     shape: SpotFalloff,
 }
 
@@ -264,6 +267,21 @@ impl Light {
     }
 }
 
+/// The smallest `f32` cosine whose `acos` is within `angle`, four ulps up (so that `acos`
+/// rounding differently one ulp apart cannot matter): every cosine at or above it is
+/// inside. Near 1 a cosine resolves angles only to ~3·10⁻⁴ rad, so the search is in
+/// ulps of the cosine, not in the angle.
+fn cos_surely_within(angle: f32) -> f32 {
+    let mut c = angle.cos();
+    while c < 1.0 && c.acos() > angle {
+        c = c.next_up();
+    }
+    while c > -1.0 && c.next_down().acos() <= angle {
+        c = c.next_down();
+    }
+    (0..4).fold(c, |c, _| c.next_up())
+}
+
 impl SpotLight {
     /// A spot light at `position` aiming at `target`.
     pub fn new(
@@ -306,6 +324,7 @@ impl SpotLight {
             beam_width: beam_width_deg.to_radians(),
             cos_cone: cone.cos(),
             cos_beam: beam_width_deg.to_radians().cos(),
+            cos_surely_in_beam: cos_surely_within(beam_width_deg.to_radians()),
             shape: SpotFalloff::Linear,
         })
     }
@@ -334,6 +353,9 @@ impl SpotLight {
             }
             let delta = (c - self.cos_cone) / (self.cos_beam - self.cos_cone);
             return (delta * delta) * (delta * delta);
+        }
+        if c >= self.cos_surely_in_beam {
+            return 1.0;
         }
         let theta = c.clamp(-1.0, 1.0).acos();
         if theta <= self.beam_width {
@@ -519,6 +541,43 @@ mod tests {
         assert_eq!(at(19.9), 1.0);
         assert!((at(25.0) - 0.5).abs() < 1e-3);
         assert_eq!(at(31.0), 0.0);
+    }
+
+    #[test]
+    fn the_beam_test_without_acos_agrees_with_the_angle() {
+        // The falloff as the angle defines it, acos everywhere.
+        let by_angle = |s: &SpotLight, w: Vec3| {
+            let c = w.dot(s.frame.w);
+            if c < s.cos_cone {
+                return 0.0;
+            }
+            let theta = c.clamp(-1.0, 1.0).acos();
+            if theta <= s.beam_width {
+                1.0
+            } else {
+                ((s.cone_angle - theta) / (s.cone_angle - s.beam_width)).clamp(0.0, 1.0)
+            }
+        };
+        let mut inside = 0;
+        for (cone, beam) in [
+            (30.0, 20.0),
+            (45.0, 45.0),
+            (60.0, 5.0),
+            (10.0, 0.01),
+            (1.0, 0.5),
+        ] {
+            let s = spot(cone, beam);
+            // A dense sweep across the beam's edge, and a coarse one across the cone.
+            let near = (0..=20_000).map(|i| beam - 0.05 + 0.1 * i as f32 / 20_000.0);
+            let all = (0..=2_000).map(|i| cone * 1.1 * i as f32 / 2_000.0);
+            for deg in near.chain(all).filter(|d| *d >= 0.0) {
+                let t = deg.to_radians();
+                let w = Vec3::new(t.sin(), 0.0, t.cos());
+                assert_eq!(s.falloff(w), by_angle(&s, w), "{cone}/{beam} at {deg}°");
+                inside += usize::from(w.z >= s.cos_surely_in_beam);
+            }
+        }
+        assert!(inside > 10_000, "the fast path was taken {inside} times");
     }
 
     #[test]
