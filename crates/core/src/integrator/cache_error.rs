@@ -15,6 +15,7 @@
 //! as rendered compared with that.
 
 use glam::Vec3;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::eye_ray::Evaluation;
@@ -184,21 +185,26 @@ impl Marcher<'_> {
         if c <= 0.0 {
             return vec![None; images];
         }
-        let mut acc = self.accumulator();
-        let mut single = Vec::new();
-        let mut multiple = vec![Vec::new(); self.variants.len()];
-        for (x, y) in Self::probe_pixels(camera) {
-            let mut layers = [(Vec3::ZERO, vec![]), (Vec3::ZERO, vec![])];
-            for (pass, evaluation) in [Evaluation::Scene, Evaluation::EverySample]
-                .into_iter()
-                .enumerate()
-            {
-                let (ray, mut rng) = self.eye_ray(camera, x, y, 0);
-                acc.start_pixel();
-                self.trace_evaluating(&ray, &mut rng, &mut acc, evaluation);
-                layers[pass] = (acc.single, acc.multiple.clone());
-            }
-            let [(thinned, thinned_ms), (exact, exact_ms)] = layers;
+        // The probe pixels in parallel (each from its own random stream, so the pairs do
+        // not depend on the threads), collected in pixel order.
+        let pixels: Vec<(u32, u32)> = Self::probe_pixels(camera).collect();
+        let traced: Vec<[(Vec3, Vec<Vec3>); 2]> = pixels
+            .into_par_iter()
+            .map_init(
+                || self.accumulator(),
+                |acc, (x, y)| {
+                    [Evaluation::Scene, Evaluation::EverySample].map(|evaluation| {
+                        let (ray, mut rng) = self.eye_ray(camera, x, y, 0);
+                        acc.start_pixel();
+                        self.trace_evaluating(&ray, &mut rng, acc, evaluation);
+                        (acc.single, acc.multiple.clone())
+                    })
+                },
+            )
+            .collect();
+        let mut single = Vec::with_capacity(traced.len());
+        let mut multiple = vec![Vec::with_capacity(traced.len()); self.variants.len()];
+        for [(thinned, thinned_ms), (exact, exact_ms)] in traced {
             single.push((mean3(thinned), mean3(exact)));
             for (v, pairs) in multiple.iter_mut().enumerate() {
                 pairs.push((mean3(thinned_ms[v]), mean3(exact_ms[v])));
