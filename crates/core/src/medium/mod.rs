@@ -7,10 +7,12 @@
 //! * [`free_path`] holds every tracker on one collision loop (delta, ratio, march, thesis);
 //! * [`march`] is the thesis's ray marching and marched optical depth;
 //! * [`optical_depth`] integrates σt exactly along a ray, cell by cell, skipping the
-//!   cells [`empty_cells`] marks;
+//!   cells [`empty_cells`] marks (which also answer where the density is zero) and reading
+//!   the corners from a [`compact_density`] copy of the grid;
 //! * [`phase`] is the phase function.
 
 pub mod colour;
+mod compact_density;
 mod empty_cells;
 mod free_path;
 mod majorant;
@@ -35,6 +37,7 @@ pub use transfer::{Pgm, TransferFunction, TransferKind, TransferParams, parse_pg
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Ray};
 use crate::volume::{Grid, NormalizationRecord, Reconstruction, Volume};
+use compact_density::Voxels;
 
 /// Default majorant brick edge in voxels (a 256³ volume gets 64³ bricks). Small bricks skip
 /// more empty space inside bone-only transfer functions; measured on the foot preset, 4
@@ -148,6 +151,8 @@ pub struct Medium {
     majorants: MajorantGrid,
     /// Built on first use by the exact optical depth.
     empty_cells: std::sync::OnceLock<empty_cells::EmptyCells>,
+    /// Built on first use by the exact optical depth (`None`: too many distinct values).
+    compact_density: std::sync::OnceLock<Option<compact_density::CompactDensity>>,
     report: SigmaReport,
     mapping: SigmaMapping,
     transfer: String,
@@ -207,6 +212,7 @@ impl Medium {
             phase: settings.phase,
             majorants,
             empty_cells: std::sync::OnceLock::new(),
+            compact_density: std::sync::OnceLock::new(),
             report,
             mapping: settings.mapping.clone(),
             transfer: settings.transfer.describe(),
@@ -319,13 +325,51 @@ impl Medium {
     /// normalise photon-map estimates by the volume photons can actually occupy.
     pub fn occupancy(&self, center: Vec3, r: f32) -> f32 {
         let points = ball_points();
-        let mut inside = usize::from(self.density(center) > 0.0);
+        let mut inside = usize::from(self.holds_medium(center));
         for u in points {
-            if self.density(center + *u * r) > 0.0 {
+            if self.holds_medium(center + *u * r) {
                 inside += 1;
             }
         }
         inside as f32 / (points.len() + 1) as f32
+    }
+
+    /// Whether the density at `p` is positive: `density(p) > 0`, answered from the empty
+    /// cells' bit where the trilinear reconstruction would read eight zero corners, and
+    /// else from the compact copy of the grid (a gather's occupancy asks 33 times per
+    /// gather, at points whose eight corners lie far apart in a grid larger than the
+    /// processor's caches; the bit is one load, the compact corners a quarter of the
+    /// memory).
+    #[inline]
+    fn holds_medium(&self, p: Vec3) -> bool {
+        if self.reconstruction == Reconstruction::Nearest || !self.bounds().contains(p) {
+            return self.density(p) > 0.0;
+        }
+        let (cell, fraction) = self.density.trilinear_cell(p);
+        if self.empty_cells().is_empty(cell.map(|c| c as i64)) {
+            return false;
+        }
+        self.trilinear_compact(cell, fraction) > 0.0
+    }
+
+    /// The interpolation [`Grid::trilinear_clamped`] makes in `cell` at `fraction` (as
+    /// [`Grid::trilinear_cell`] gives them), its corners read from the compact copy when
+    /// there is one: the same value to the bit.
+    #[inline]
+    fn trilinear_compact(&self, cell: [usize; 3], fraction: [f32; 3]) -> f32 {
+        let dims = self.density.dims();
+        let pitch = [1, dims[0], dims[0] * dims[1]];
+        let base = cell[0] + pitch[1] * cell[1] + pitch[2] * cell[2];
+        let step = [0, 1, 2].map(|a| if dims[a] > 1 { pitch[a] } else { 0 });
+        let corners = match self.compact_density() {
+            Some(c) => match (c.bytes(), c.words()) {
+                (Some(bytes), _) => bytes.corners(base, step),
+                (_, Some(words)) => words.corners(base, step),
+                _ => self.density.values().corners(base, step),
+            },
+            None => self.density.values().corners(base, step),
+        };
+        optical_depth::trilinear(&corners, Vec3::from(fraction))
     }
 
     /// The majorant bricks.
@@ -337,6 +381,14 @@ impl Medium {
     fn empty_cells(&self) -> &empty_cells::EmptyCells {
         self.empty_cells
             .get_or_init(|| empty_cells::EmptyCells::build(&self.density))
+    }
+
+    /// The density grid's compact copy (built on first use), when it has at most 65 536
+    /// distinct values.
+    fn compact_density(&self) -> Option<&compact_density::CompactDensity> {
+        self.compact_density
+            .get_or_init(|| compact_density::CompactDensity::build(&self.density))
+            .as_ref()
     }
 
     /// The σ mapping's outcome on this volume.
@@ -406,6 +458,33 @@ mod tests {
 
     use super::test_media::phantom_medium as medium;
     use crate::math::Ray;
+
+    #[test]
+    fn the_empty_cell_shortcut_answers_as_the_density_does() {
+        // Points all over the box and a little beyond, on phantoms with empty space.
+        let mut rng = crate::math::Rng::stream(3, crate::math::Domain::Misc, 0);
+        for name in ["foot", "engine", "sphere"] {
+            let m = medium(name, 24, None, 10.0);
+            let mut counts = [0usize; 2];
+            for _ in 0..20_000 {
+                let p =
+                    Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 1.2 - Vec3::splat(0.1);
+                let holds = m.holds_medium(p);
+                assert_eq!(holds, m.density(p) > 0.0, "{name} at {p}");
+                if m.bounds().contains(p) {
+                    let (cell, fraction) = m.density.trilinear_cell(p);
+                    assert_eq!(
+                        m.trilinear_compact(cell, fraction).to_bits(),
+                        m.density.trilinear_clamped(p).to_bits(),
+                        "{name} at {p}"
+                    );
+                    counts[usize::from(holds)] += 1;
+                }
+            }
+            // Both answers inside the box, so the shortcut was taken.
+            assert!(counts[0] > 1000 && counts[1] > 1000, "{name}: {counts:?}");
+        }
+    }
 
     #[test]
     fn segments_cover_the_interval_in_order() {

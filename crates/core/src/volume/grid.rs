@@ -115,18 +115,8 @@ impl Grid {
     /// inside the ray's clipped interval); points outside read the nearest edge cell.
     #[inline]
     pub fn trilinear_clamped(&self, p: Vec3) -> f32 {
-        // Continuous voxel coordinate with centres at integers.
-        let c = (p - self.bounds.min) * self.scale - 0.5;
+        let ([x0, y0, z0], [tx, ty, tz]) = self.trilinear_cell(p);
         let [nx, ny, nz] = self.dims;
-        let fx = c.x.clamp(0.0, (nx - 1) as f32);
-        let fy = c.y.clamp(0.0, (ny - 1) as f32);
-        let fz = c.z.clamp(0.0, (nz - 1) as f32);
-        let x0 = (fx as usize).min(nx.saturating_sub(2));
-        let y0 = (fy as usize).min(ny.saturating_sub(2));
-        let z0 = (fz as usize).min(nz.saturating_sub(2));
-        let tx = fx - x0 as f32;
-        let ty = fy - y0 as f32;
-        let tz = fz - z0 as f32;
         let dx = usize::from(nx > 1);
         let sy = if ny > 1 { nx } else { 0 };
         let sz = if nz > 1 { nx * ny } else { 0 };
@@ -139,6 +129,22 @@ impl Grid {
         let c0 = c00 + (c10 - c00) * ty;
         let c1 = c01 + (c11 - c01) * ty;
         c0 + (c1 - c0) * tz
+    }
+
+    /// The lower corner of the cell of voxel centres that [`Self::trilinear_clamped`]
+    /// interpolates at `p` (it reads that voxel and the next one along each axis, clamped
+    /// to the grid), and `p`'s fractions between them.
+    #[inline]
+    pub fn trilinear_cell(&self, p: Vec3) -> ([usize; 3], [f32; 3]) {
+        // Continuous voxel coordinate with centres at integers.
+        let c = (p - self.bounds.min) * self.scale - 0.5;
+        let corner = |c: f32, n: usize| {
+            let f = c.clamp(0.0, (n - 1) as f32);
+            let lower = (f as usize).min(n.saturating_sub(2));
+            (lower, f - lower as f32)
+        };
+        let [(x0, tx), (y0, ty), (z0, tz)] = [0, 1, 2].map(|a| corner(c[a], self.dims[a]));
+        ([x0, y0, z0], [tx, ty, tz])
     }
 
     /// Nearest-voxel reconstruction.
