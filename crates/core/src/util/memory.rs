@@ -9,8 +9,14 @@ pub fn peak_memory_bytes() -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// Largest volume, in bytes of `f32` working memory, that we agree to load. Half the
-/// machine's available memory (the medium keeps a second grid of the same size).
+/// Working memory a loaded volume needs per voxel, in bytes: its `f32` grid and the
+/// medium's transferred copy (4 + 4), the exact optical depth's compact copy (up to 2, and
+/// 1 more while a byte-indexed one is built) and the empty-cell bits (1/8), rounded up.
+pub(crate) const WORKING_BYTES_PER_VOXEL: u64 = 12;
+
+/// Largest volume, in bytes of working memory (12 per voxel: both `f32` grids, the compact
+/// copy and the empty-cell bits), that we agree to load: half the machine's available
+/// memory.
 pub fn memory_budget_bytes() -> u64 {
     let available = std::fs::read_to_string("/proc/meminfo")
         .ok()

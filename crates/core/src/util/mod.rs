@@ -6,4 +6,5 @@ mod memory;
 
 pub use checksum::{cache_dir, sha256_bytes, sha256_cached, sha256_content, sha256_file};
 pub use fsutil::{hostname, is_stale_temp, temp_sibling, write_atomic, write_atomic_with};
+pub(crate) use memory::WORKING_BYTES_PER_VOXEL;
 pub use memory::{memory_budget_bytes, peak_memory_bytes, process_cpu_seconds};

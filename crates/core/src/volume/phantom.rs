@@ -102,8 +102,8 @@ impl PhantomParams {
                 "three voxel counts in [2, 1024]",
             ));
         }
-        // The grid and the medium's transferred copy, as f32.
-        let bytes = self.resolution.iter().map(|&n| n as u64).product::<u64>() * 8;
+        let voxels = self.resolution.iter().map(|&n| n as u64).product::<u64>();
+        let bytes = voxels * crate::util::WORKING_BYTES_PER_VOXEL;
         let budget = crate::util::memory_budget_bytes();
         if bytes > budget {
             return Err(Error::parameter(

@@ -139,7 +139,7 @@ pub fn check_dims(path: &Path, dims: [usize; 3]) -> Result<usize> {
         .iter()
         .try_fold(1usize, |acc, &n| acc.checked_mul(n))
         .ok_or_else(|| Error::format(path, format!("dims {dims:?}: voxel count overflows")))?;
-    let bytes = (count as u64).saturating_mul(8);
+    let bytes = (count as u64).saturating_mul(crate::util::WORKING_BYTES_PER_VOXEL);
     let budget = crate::util::memory_budget_bytes();
     if bytes > budget {
         return Err(Error::format(
