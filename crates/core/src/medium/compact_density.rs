@@ -16,19 +16,9 @@ use crate::volume::Grid;
 #[derive(Debug, Clone)]
 pub(super) enum CompactDensity {
     /// At most 256 distinct values: one byte per voxel.
-    Byte {
-        /// Per voxel (x fastest), the position of its value in `table`.
-        index: Vec<u8>,
-        /// The distinct values (unused entries zero).
-        table: Box<[f32; 256]>,
-    },
+    Byte(Indexed<u8, 256>),
     /// At most 65 536 distinct values: two bytes per voxel.
-    Word {
-        /// Per voxel (x fastest), the position of its value in `table`.
-        index: Vec<u16>,
-        /// The distinct values (unused entries zero).
-        table: Box<[f32; 65536]>,
-    },
+    Word(Indexed<u16, 65536>),
 }
 
 /// Voxel values read by linear index: the grid's own `f32`s, or a compact copy.
@@ -53,13 +43,15 @@ impl Voxels for [f32] {
     }
 }
 
-/// Indices into a table of `N` values.
-pub(super) struct Indexed<'a, I, const N: usize> {
-    index: &'a [I],
-    table: &'a [f32; N],
+/// Per voxel (x fastest), the position of its value in a table of `N` values (unused
+/// entries zero).
+#[derive(Debug, Clone)]
+pub(super) struct Indexed<I, const N: usize> {
+    index: Vec<I>,
+    table: Box<[f32; N]>,
 }
 
-impl<I: Copy + Into<usize>, const N: usize> Voxels for Indexed<'_, I, N> {
+impl<I: Copy + Into<usize>, const N: usize> Voxels for Indexed<I, N> {
     #[inline]
     fn corners(&self, base: usize, step: [usize; 3]) -> [f32; 8] {
         let block = &self.index[base..=base + step[0] + step[1] + step[2]];
@@ -76,27 +68,11 @@ impl CompactDensity {
             let mut table = Box::new([0.0f32; 256]);
             table[..distinct.len()].copy_from_slice(&distinct);
             let index = index.into_iter().map(|i| i as u8).collect();
-            return Some(CompactDensity::Byte { index, table });
+            return Some(CompactDensity::Byte(Indexed { index, table }));
         }
         let mut table: Box<[f32; 65536]> = vec![0.0f32; 65536].try_into().ok()?;
         table[..distinct.len()].copy_from_slice(&distinct);
-        Some(CompactDensity::Word { index, table })
-    }
-
-    /// The byte-indexed values, when there are at most 256.
-    pub(super) fn bytes(&self) -> Option<Indexed<'_, u8, 256>> {
-        match self {
-            CompactDensity::Byte { index, table } => Some(Indexed { index, table }),
-            CompactDensity::Word { .. } => None,
-        }
-    }
-
-    /// The word-indexed values, when there are more than 256.
-    pub(super) fn words(&self) -> Option<Indexed<'_, u16, 65536>> {
-        match self {
-            CompactDensity::Word { index, table } => Some(Indexed { index, table }),
-            CompactDensity::Byte { .. } => None,
-        }
+        Some(CompactDensity::Word(Indexed { index, table }))
     }
 }
 
@@ -154,10 +130,9 @@ mod tests {
     /// Every value read back through the compact copy, to the bit.
     fn read_back(c: &CompactDensity, n: usize) -> Vec<u32> {
         (0..n)
-            .map(|i| match (c.bytes(), c.words()) {
-                (Some(b), _) => b.corners(i, [0; 3])[0],
-                (_, Some(w)) => w.corners(i, [0; 3])[0],
-                _ => unreachable!("one of the two"),
+            .map(|i| match c {
+                CompactDensity::Byte(b) => b.corners(i, [0; 3])[0],
+                CompactDensity::Word(w) => w.corners(i, [0; 3])[0],
             })
             .map(f32::to_bits)
             .collect()
@@ -170,7 +145,7 @@ mod tests {
             .collect();
         let c = CompactDensity::build(&grid(values.clone())).expect("few values");
         assert!(
-            c.bytes().is_some(),
+            matches!(c, CompactDensity::Byte(_)),
             "at most 256 distinct values take a byte"
         );
         let bits: Vec<u32> = values.iter().map(|v| v.to_bits()).collect();
@@ -182,7 +157,7 @@ mod tests {
         let values: Vec<f32> = (0..70_000).map(|i| (i % 30_000) as f32 * 1e-3).collect();
         let c = CompactDensity::build(&grid(values.clone())).expect("30 000 values");
         assert!(
-            c.words().is_some(),
+            matches!(c, CompactDensity::Word(_)),
             "more than 256 distinct values take two bytes"
         );
         let bits: Vec<u32> = values.iter().map(|v| v.to_bits()).collect();
@@ -209,9 +184,9 @@ mod tests {
             values.corners(0, step),
             [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5]
         );
-        assert_eq!(
-            c.bytes().expect("a byte").corners(0, step),
-            values.corners(0, step)
-        );
+        let CompactDensity::Byte(bytes) = c else {
+            panic!("eight values take a byte")
+        };
+        assert_eq!(bytes.corners(0, step), values.corners(0, step));
     }
 }

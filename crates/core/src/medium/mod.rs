@@ -37,7 +37,7 @@ pub use transfer::{Pgm, TransferFunction, TransferKind, TransferParams, parse_pg
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Ray};
 use crate::volume::{Grid, NormalizationRecord, Reconstruction, Volume};
-use compact_density::Voxels;
+use compact_density::{CompactDensity, Voxels};
 
 /// Default majorant brick edge in voxels (a 256³ volume gets 64³ bricks). Small bricks skip
 /// more empty space inside bone-only transfer functions; measured on the foot preset, 4
@@ -152,7 +152,7 @@ pub struct Medium {
     /// Built on first use by the exact optical depth.
     empty_cells: std::sync::OnceLock<empty_cells::EmptyCells>,
     /// Built on first use by the exact optical depth (`None`: too many distinct values).
-    compact_density: std::sync::OnceLock<Option<compact_density::CompactDensity>>,
+    compact_density: std::sync::OnceLock<Option<CompactDensity>>,
     report: SigmaReport,
     mapping: SigmaMapping,
     transfer: String,
@@ -362,11 +362,8 @@ impl Medium {
         let base = cell[0] + pitch[1] * cell[1] + pitch[2] * cell[2];
         let step = [0, 1, 2].map(|a| if dims[a] > 1 { pitch[a] } else { 0 });
         let corners = match self.compact_density() {
-            Some(c) => match (c.bytes(), c.words()) {
-                (Some(bytes), _) => bytes.corners(base, step),
-                (_, Some(words)) => words.corners(base, step),
-                _ => self.density.values().corners(base, step),
-            },
+            Some(CompactDensity::Byte(bytes)) => bytes.corners(base, step),
+            Some(CompactDensity::Word(words)) => words.corners(base, step),
             None => self.density.values().corners(base, step),
         };
         optical_depth::trilinear(&corners, Vec3::from(fraction))
@@ -385,9 +382,9 @@ impl Medium {
 
     /// The density grid's compact copy (built on first use), when it has at most 65 536
     /// distinct values.
-    fn compact_density(&self) -> Option<&compact_density::CompactDensity> {
+    fn compact_density(&self) -> Option<&CompactDensity> {
         self.compact_density
-            .get_or_init(|| compact_density::CompactDensity::build(&self.density))
+            .get_or_init(|| CompactDensity::build(&self.density))
             .as_ref()
     }
 

@@ -14,7 +14,7 @@
 use glam::Vec3;
 
 use super::Medium;
-use super::compact_density::Voxels;
+use super::compact_density::{CompactDensity, Voxels};
 use crate::math::Ray;
 use crate::volume::Reconstruction;
 
@@ -150,11 +150,8 @@ impl Medium {
     /// the grid's compact copy when it has one (the same values in less memory).
     fn density_integral_trilinear(&self, ray: &Ray, ta: f32, tb: f32) -> f32 {
         match self.compact_density() {
-            Some(c) => match (c.bytes(), c.words()) {
-                (Some(bytes), _) => self.integrate_cells(ray, ta, tb, &bytes),
-                (_, Some(words)) => self.integrate_cells(ray, ta, tb, &words),
-                _ => self.integrate_cells(ray, ta, tb, self.density.values()),
-            },
+            Some(CompactDensity::Byte(bytes)) => self.integrate_cells(ray, ta, tb, bytes),
+            Some(CompactDensity::Word(words)) => self.integrate_cells(ray, ta, tb, words),
             None => self.integrate_cells(ray, ta, tb, self.density.values()),
         }
     }
@@ -219,6 +216,7 @@ impl Medium {
 mod tests {
     use glam::Vec3;
 
+    use super::CompactDensity;
     use crate::math::Ray;
     use crate::medium::test_media::phantom_medium as medium;
 
@@ -237,14 +235,16 @@ mod tests {
             let compact = m
                 .compact_density()
                 .expect("a phantom has few distinct values");
-            let bytes = compact.bytes().expect("at most 256");
+            let CompactDensity::Byte(bytes) = compact else {
+                panic!("a phantom has at most 256 distinct values")
+            };
             for _ in 0..200 {
                 let origin = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
                 let direction = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5;
                 let ray = Ray::new(origin, direction.normalize());
                 let (t0, t1) = m.clip(&ray).unwrap();
                 let values = m.integrate_cells(&ray, t0, t1, m.density.values());
-                let indexed = m.integrate_cells(&ray, t0, t1, &bytes);
+                let indexed = m.integrate_cells(&ray, t0, t1, bytes);
                 assert_eq!(values.to_bits(), indexed.to_bits(), "{name} {ray:?}");
             }
         }

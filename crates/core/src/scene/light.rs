@@ -357,6 +357,13 @@ impl SpotLight {
         if c >= self.cos_surely_in_beam {
             return 1.0;
         }
+        self.linear_falloff_by_angle(c)
+    }
+
+    /// The linear falloff inside the cone as the angle defines it: 1 within the beam, then
+    /// linear in the angle down to 0 at the cone's edge.
+    #[inline]
+    fn linear_falloff_by_angle(&self, c: f32) -> f32 {
         let theta = c.clamp(-1.0, 1.0).acos();
         if theta <= self.beam_width {
             1.0
@@ -545,17 +552,13 @@ mod tests {
 
     #[test]
     fn the_beam_test_without_acos_agrees_with_the_angle() {
-        // The falloff as the angle defines it, acos everywhere.
+        // The falloff as the angle defines it, acos everywhere inside the cone.
         let by_angle = |s: &SpotLight, w: Vec3| {
             let c = w.dot(s.frame.w);
             if c < s.cos_cone {
-                return 0.0;
-            }
-            let theta = c.clamp(-1.0, 1.0).acos();
-            if theta <= s.beam_width {
-                1.0
+                0.0
             } else {
-                ((s.cone_angle - theta) / (s.cone_angle - s.beam_width)).clamp(0.0, 1.0)
+                s.linear_falloff_by_angle(c)
             }
         };
         let mut inside = 0;
