@@ -22,6 +22,7 @@ use super::gather::{MapGroup, source_factor};
 use super::march::{Accumulator, Marcher, RaySample};
 use super::thinning::{BANDS, Bands};
 use crate::math::{Ray, Rng};
+use crate::medium::blocked_depth;
 use crate::scene::{Light, Quadrature, ShadowEstimator};
 
 /// Which evaluations an eye ray makes: the scene's, or every one of them (the thinning
@@ -294,7 +295,7 @@ impl Marcher<'_> {
         let tau_max = self.shadow_tau_max;
         match self.settings.shadow {
             ShadowEstimator::Exact => transmittance_of(
-                self.medium.optical_depth_exact(&ray, t0, t1, tau_max),
+                self.medium.optical_depth_capped(&ray, t0, t1, tau_max),
                 tau_max,
             ),
             // A marched shadow ray stops, like the eye ray, once its transmittance drops
@@ -358,7 +359,7 @@ impl Track for ShadowTrack<'_> {
     fn evaluate(&mut self, i: usize) {
         let medium = self.marcher.medium;
         let tau_max = self.marcher.shadow_tau_max;
-        let blocked = tau_max.min(1e6) + 1.0;
+        let blocked = blocked_depth(tau_max);
         let x = self.samples[i].x;
         self.tau[i] = match self.light.incident(x) {
             None => blocked,
@@ -369,9 +370,9 @@ impl Track for ShadowTrack<'_> {
                 };
                 match medium.clip(&ray) {
                     None => 0.0,
-                    Some((t0, t1)) => medium
-                        .optical_depth_exact(&ray, t0, t1.min(inc.distance), tau_max)
-                        .min(blocked),
+                    Some((t0, t1)) => {
+                        medium.optical_depth_capped(&ray, t0, t1.min(inc.distance), tau_max)
+                    }
                 }
             }
         };

@@ -26,7 +26,8 @@ use glam::Vec3;
 
 pub use colour::ColourTransfer;
 pub use free_path::{FreePath, sample_interaction_march, sample_interaction_thesis};
-pub use majorant::{MajorantGrid, MajorantSegment, MajorantSegments};
+pub use majorant::{MajorantGrid, MajorantSegment, MajorantSegments, OccupiedRuns};
+pub use optical_depth::blocked_depth;
 pub use phase::Phase;
 pub use sigma::{
     Coefficients, MIN_MEAN_FREE_PATH, MappingKind, SigmaMapping, SigmaParams, SigmaReport, Split,

@@ -15,6 +15,7 @@ use glam::Vec3;
 
 use super::Medium;
 use super::compact_density::{CompactDensity, Voxels};
+use super::majorant::CrossingAxis;
 use crate::math::Ray;
 use crate::volume::Reconstruction;
 
@@ -64,16 +65,10 @@ impl Iterator for CellWalk {
         if self.t >= self.t_max {
             return None;
         }
-        let axis = if self.next[0] < self.next[1] {
-            if self.next[0] < self.next[2] { 0 } else { 2 }
-        } else if self.next[1] < self.next[2] {
-            1
-        } else {
-            2
-        };
-        let exit = self.next[axis].min(self.t_max).max(self.t);
+        let crossing = CrossingAxis::of(self.next);
+        let exit = crossing.t.min(self.t_max).max(self.t);
         let cell = (self.t, exit);
-        self.next[axis] += self.delta[axis];
+        self.next = crossing.advance(self.next, self.delta);
         // Cells shorter than the precision of t are merged into the next one.
         self.t = if exit > self.t {
             exit
@@ -105,61 +100,100 @@ pub(super) fn trilinear(c: &[f32; 8], f: Vec3) -> f32 {
     y0 + (y1 - y0) * f.z
 }
 
+/// The optical depth past which a light counts as blocked, for a cap `tau_max` (one more
+/// than the cap, so an interpolated depth between a blocked and an open sample leaves the
+/// cap on the blocked side): see [`Medium::optical_depth_capped`].
+#[inline]
+pub fn blocked_depth(tau_max: f32) -> f32 {
+    tau_max.min(1e6) + 1.0
+}
+
 impl Medium {
     /// The exact optical depth τ = ∫σt dt over `[t0, t1]` (inside the box, as
-    /// [`Medium::clip`] returns it), stopping once τ exceeds `tau_max`.
+    /// [`Medium::clip`] returns it). Past `tau_max` the result is a lower bound above
+    /// `tau_max`: the walk stops at the end of the run of bricks where τ exceeds it.
     pub fn optical_depth_exact(&self, ray: &Ray, t0: f32, t1: f32, tau_max: f32) -> f32 {
+        self.optical_depth_walk(ray, t0, t1, tau_max, f32::INFINITY)
+    }
+
+    /// [`Medium::optical_depth_exact`] capped at [`blocked_depth`](crate::blocked_depth)`(tau_max)` (the depth of
+    /// a shadow ray, where anything past `tau_max` blocks the light): the cell walk stops
+    /// as soon as τ surely exceeds the blocked depth, instead of crossing the rest of the
+    /// volume, and the result is `optical_depth_exact(…).min(blocked_depth(tau_max))` to
+    /// the bit.
+    pub fn optical_depth_capped(&self, ray: &Ray, t0: f32, t1: f32, tau_max: f32) -> f32 {
+        let blocked = blocked_depth(tau_max);
+        self.optical_depth_walk(ray, t0, t1, tau_max, blocked)
+            .min(blocked)
+    }
+
+    /// The optical depth over `[t0, t1]`, stopping at the end of a run of bricks once τ
+    /// exceeds `tau_max` and inside a run once it surely exceeds `stop_within`.
+    fn optical_depth_walk(
+        &self,
+        ray: &Ray,
+        t0: f32,
+        t1: f32,
+        tau_max: f32,
+        stop_within: f32,
+    ) -> f32 {
         let mut tau = 0.0f32;
         // Runs of adjacent non-empty bricks are integrated in one cell walk: the walk and
         // its entry value are set up once per run instead of once per brick.
-        let mut run: Option<(f32, f32)> = None;
-        let mut integrate = |(a, b): (f32, f32)| {
+        for (a, b) in self.majorants.occupied_runs(ray, t0, t1) {
             tau += match self.reconstruction {
-                Reconstruction::Trilinear => self.density_integral_trilinear(ray, a, b),
+                Reconstruction::Trilinear => {
+                    let stop = self.raw_sum_past(stop_within - tau);
+                    self.density_integral_trilinear(ray, a, b, stop)
+                }
                 Reconstruction::Nearest => self.density_integral_nearest(ray, a, b),
             } * self.sigma_t_base;
-            tau > tau_max
-        };
-        for seg in self.segments(ray, t0, t1) {
-            if seg.sigma_maj == 0.0 {
-                if let Some(r) = run.take()
-                    && integrate(r)
-                {
-                    return tau;
-                }
-                continue;
+            if tau > tau_max {
+                break;
             }
-            run = match run {
-                Some((a, b)) if seg.t_min <= b => Some((a, seg.t_max.max(b))),
-                Some(r) => {
-                    if integrate(r) {
-                        return tau;
-                    }
-                    Some((seg.t_min, seg.t_max))
-                }
-                None => Some((seg.t_min, seg.t_max)),
-            };
-        }
-        if let Some(r) = run {
-            integrate(r);
         }
         tau
     }
 
+    /// A Simpson sum (six times the density integral) past which a run's optical depth
+    /// surely adds more than `remaining`. The margin of 10⁻⁴ covers the rounding of this
+    /// bound and of `τ + sum / 6 · σ` (a few ulps, ~10⁻⁷), so a walk stopped there ends
+    /// with τ at or above the stop even though it skipped the rest of the run; every term
+    /// is ≥ 0 and rounding is monotone, so the full run's τ is at least as large, and
+    /// `min(stop)` is the same either way.
+    #[inline]
+    fn raw_sum_past(&self, remaining: f32) -> f32 {
+        if self.sigma_t_base > 0.0 && remaining.is_finite() {
+            6.0 * remaining.max(0.0) / self.sigma_t_base * (1.0 + 1e-4)
+        } else {
+            f32::INFINITY
+        }
+    }
+
     /// ∫ density dt over `[ta, tb]` for trilinear reconstruction, reading the corners from
-    /// the grid's compact copy when it has one (the same values in less memory).
-    fn density_integral_trilinear(&self, ray: &Ray, ta: f32, tb: f32) -> f32 {
+    /// the grid's compact copy when it has one (the same values in less memory); the walk
+    /// stops once its Simpson sum exceeds `stop`.
+    fn density_integral_trilinear(&self, ray: &Ray, ta: f32, tb: f32, stop: f32) -> f32 {
         match self.compact_density() {
-            Some(CompactDensity::Byte(bytes)) => self.integrate_cells(ray, ta, tb, bytes),
-            Some(CompactDensity::Word(words)) => self.integrate_cells(ray, ta, tb, words),
-            None => self.integrate_cells(ray, ta, tb, self.density.values()),
+            Some(CompactDensity::Byte(bytes)) => self.integrate_cells(ray, ta, tb, bytes, stop),
+            Some(CompactDensity::Word(words)) => self.integrate_cells(ray, ta, tb, words, stop),
+            None => self.integrate_cells(ray, ta, tb, self.density.values(), stop),
         }
     }
 
     /// ∫ density dt over `[ta, tb]`: Simpson's rule per cell of the grid of voxel centres
     /// (exact for the cubic the density is along the ray there), with the cell's eight
-    /// corner values fetched once from `voxels`.
-    fn integrate_cells<V: Voxels + ?Sized>(&self, ray: &Ray, ta: f32, tb: f32, voxels: &V) -> f32 {
+    /// corner values fetched once from `voxels`. Once the Simpson sum (six times the
+    /// integral) exceeds `stop` the walk returns what it has (a blocked shadow ray need not
+    /// cross the rest of the volume).
+    fn integrate_cells<V: Voxels + ?Sized>(
+        &self,
+        ray: &Ray,
+        ta: f32,
+        tb: f32,
+        voxels: &V,
+        stop: f32,
+    ) -> f32 {
         let grid = &self.density;
         let bounds = grid.bounds();
         let dims = grid.dims();
@@ -195,6 +229,9 @@ impl Medium {
             let f1 = trilinear(&corners, local(origin + direction * t1));
             sum += (t1 - t0) * (f0 + 4.0 * fm + f1);
             f0 = f1;
+            if sum > stop {
+                break;
+            }
         }
         sum / 6.0
     }
@@ -216,7 +253,7 @@ impl Medium {
 mod tests {
     use glam::Vec3;
 
-    use super::CompactDensity;
+    use super::{CompactDensity, blocked_depth};
     use crate::math::Ray;
     use crate::medium::test_media::phantom_medium as medium;
 
@@ -243,11 +280,40 @@ mod tests {
                 let direction = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5;
                 let ray = Ray::new(origin, direction.normalize());
                 let (t0, t1) = m.clip(&ray).unwrap();
-                let values = m.integrate_cells(&ray, t0, t1, m.density.values());
-                let indexed = m.integrate_cells(&ray, t0, t1, bytes);
+                let values = m.integrate_cells(&ray, t0, t1, m.density.values(), f32::INFINITY);
+                let indexed = m.integrate_cells(&ray, t0, t1, bytes, f32::INFINITY);
                 assert_eq!(values.to_bits(), indexed.to_bits(), "{name} {ray:?}");
             }
         }
+    }
+
+    #[test]
+    fn a_capped_depth_is_the_exact_depth_capped_to_the_bit() {
+        let mut rng = crate::math::Rng::stream(7, crate::math::Domain::Misc, 0);
+        let mut stopped_inside_a_run = 0;
+        for name in ["foot", "engine", "head"] {
+            let m = medium(name, 40, None, 80.0);
+            for _ in 0..300 {
+                let origin = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+                let direction = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5;
+                let ray = Ray::new(origin, direction.normalize());
+                let (t0, t1) = m.clip(&ray).unwrap();
+                let full = m.optical_depth_exact(&ray, t0, t1, f32::INFINITY);
+                for tau_max in [0.5, 2.0, 6.9, 30.0, f32::INFINITY] {
+                    let blocked = blocked_depth(tau_max);
+                    let exact = m.optical_depth_exact(&ray, t0, t1, tau_max);
+                    let capped = m.optical_depth_capped(&ray, t0, t1, tau_max);
+                    assert_eq!(capped.to_bits(), exact.min(blocked).to_bits(), "{ray:?}");
+                    if full <= tau_max {
+                        assert_eq!(exact.to_bits(), full.to_bits(), "{ray:?}");
+                    }
+                    let walked = m.optical_depth_walk(&ray, t0, t1, tau_max, blocked);
+                    stopped_inside_a_run += usize::from(walked < exact);
+                }
+            }
+        }
+        // The early stop is exercised, not only the runs' ends.
+        assert!(stopped_inside_a_run > 50, "{stopped_inside_a_run}");
     }
 
     #[test]
