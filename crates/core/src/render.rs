@@ -139,6 +139,7 @@ pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
             timings.photon_tracing = out.stats.photon_seconds;
             timings.tree_build = out.stats.tree_seconds;
             timings.render = out.stats.march_seconds;
+            cache_error = out.cache_error;
             progressive = Some(out.stats);
             (out.film, Some(out.photons), Some(out.march), None)
         }

@@ -300,3 +300,41 @@ fn each_thinned_band_adds_no_more_shadow_error_than_the_front_on_the_cranium_ct(
     let single = thinning.single.expect("a lit single layer");
     assert!(single.mean.abs() < 0.005 && single.p99 < 0.01, "{single:?}");
 }
+
+#[test]
+fn progressive_and_beam_renders_measure_thinning_on_their_first_march() {
+    use volphot::MsEstimator;
+    let base = common::scene(SCENE);
+    for estimator in [MsEstimator::Progressive, MsEstimator::Beam] {
+        let with = |thin_below: f32| {
+            let scene = base
+                .with_integrator(IntegratorParams {
+                    estimator,
+                    iterations: 2,
+                    volume_photons: 5000,
+                    thin_below,
+                    ..base.integrator().clone()
+                })
+                .unwrap();
+            volphot::render(&scene, &Control::none()).unwrap().record
+        };
+        let thinned = with(volphot::DEFAULT_THIN_BELOW);
+        assert_eq!(thinned.progressive.as_ref().unwrap().iterations, 2);
+        let error = thinned.cache_error.expect("a thinned render measures");
+        assert!(!error.has_cache(), "{estimator:?}: thinning is not a cache");
+        let t = error.thinning.expect("the thinning error");
+        assert_eq!(t.pixels, 32 * 32, "{estimator:?}");
+        for (layer, bound) in [("single", t.single), ("multiple", t.multiple)] {
+            let bound = bound.unwrap_or_else(|| panic!("{estimator:?}: a lit {layer} layer"));
+            assert!(
+                bound.mean.abs() < 0.005 && bound.p99 < 0.02,
+                "{estimator:?} {layer}: {bound:?}"
+            );
+        }
+        assert_eq!(
+            with(0.0).cache_error,
+            None,
+            "{estimator:?}: nothing to measure"
+        );
+    }
+}

@@ -232,8 +232,9 @@ pub fn render_march(
 }
 
 /// Whether a pass measures what its caches and thinning err by ([`super::cache_error`]).
-/// A progressive iteration does not: its image is one of many averaged, and the error
-/// that matters is the average's against the reference.
+/// A progressive or beam render measures its first march, which renders every layer; its
+/// later iterations do not (they march the same eye samples with another photon map and
+/// a smaller radius, and the record holds one measurement).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Measure {
     Errors,

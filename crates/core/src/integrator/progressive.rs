@@ -25,6 +25,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::beam::{beam_masked, beam_radius};
+use super::cache_error::CacheError;
 use super::gather::MsVariant;
 use super::march::{MarchStats, Measure, beams_measured, march_measured};
 use crate::control::Control;
@@ -89,6 +90,10 @@ pub struct ProgressiveOutput {
     pub photons: PhotonStats,
     /// What the iterations did.
     pub stats: ProgressiveStats,
+    /// What thinning erred by, measured on the first iteration's march (its photon map
+    /// and radius, single and multiple layers, as a points render measures its own march;
+    /// `None` without thinning).
+    pub cache_error: Option<CacheError>,
 }
 
 /// The radius of iteration `i + 1` from that of iteration `i` (1-based): the variance of
@@ -138,6 +143,7 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
     };
     let mut film: Option<Film> = None;
     let (mut first_march, mut first_photons) = (MarchStats::default(), PhotonStats::default());
+    let mut first_error = None;
     let mut multiple_sum: Vec<Vec3> = Vec::new();
     // With a reference: the first march's direct layers, the part of the image that no
     // later iteration changes.
@@ -156,8 +162,14 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
         }
         let progress = |r: u64| control.report((i as u64 - 1) * rows + r);
         let iteration_control = control.with_progress(&progress);
-        let (iteration_film, march, used_radius) =
-            march_iteration(scene, &s, i, &map, radius, &iteration_control)?;
+        // The first march renders every layer, so it is the one thinning is measured on.
+        let measure = if i == 1 {
+            Measure::Errors
+        } else {
+            Measure::Skip
+        };
+        let (iteration_film, march, used_radius, cache_error) =
+            march_iteration(scene, &s, i, &map, radius, &iteration_control, measure)?;
         stats.march_seconds += march.seconds;
         stats.radii.push(used_radius);
         stats.stored.push(map.stats().stored);
@@ -165,6 +177,7 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
         accumulate(&mut multiple_sum, iteration_film.layer(Layer::Multiple));
         if i == 1 {
             first_march = march;
+            first_error = cache_error;
             first_photons = map.stats().clone();
             if control.reference().is_some() {
                 direct = iteration_film.combine(&Layer::shown(false, s.emission));
@@ -197,6 +210,7 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
         march: first_march,
         photons: first_photons,
         stats,
+        cache_error: first_error,
     })
 }
 
@@ -248,7 +262,8 @@ fn trace_iteration(
 }
 
 /// One iteration's march: everything in the first, the multiple term alone afterwards;
-/// returns the film, the counters and the (mean) gather radius used.
+/// returns the film, the counters, the (mean) gather radius used and, when `measure` asks,
+/// what thinning erred by.
 fn march_iteration(
     scene: &Scene,
     s: &IntegratorParams,
@@ -256,7 +271,8 @@ fn march_iteration(
     map: &PhotonMap,
     radius: f32,
     control: &Control<'_>,
-) -> Result<(Film, MarchStats, f32)> {
+    measure: Measure,
+) -> Result<(Film, MarchStats, f32, Option<CacheError>)> {
     let mut settings = s.clone();
     if i > 1 {
         settings.single = false;
@@ -267,10 +283,16 @@ fn march_iteration(
         let start = Instant::now();
         let beams = BeamMap::new(map, beam_radius(s, radius), scene.medium(), beam_masked(s));
         let build_seconds = start.elapsed().as_secs_f64();
-        let mut out = beams_measured(&scene, &beams, control, Measure::Skip)?;
+        let mut out = beams_measured(&scene, &beams, control, measure)?;
         // The hierarchy is built for this march alone: its time is the march's.
         out.stats.seconds += build_seconds;
-        return Ok((out.films.swap_remove(0), out.stats, beams.mean_radius()));
+        let error = out.cache_errors.swap_remove(0);
+        return Ok((
+            out.films.swap_remove(0),
+            out.stats,
+            beams.mean_radius(),
+            error,
+        ));
     }
     let variant = MsVariant {
         map: 0,
@@ -278,8 +300,9 @@ fn march_iteration(
         maxdist: radius,
         estimate: s.estimate,
     };
-    let mut out = march_measured(&scene, &[map], &[variant], control, Measure::Skip)?;
-    Ok((out.films.swap_remove(0), out.stats, radius))
+    let mut out = march_measured(&scene, &[map], &[variant], control, measure)?;
+    let error = out.cache_errors.swap_remove(0);
+    Ok((out.films.swap_remove(0), out.stats, radius, error))
 }
 
 /// The median over (up to 1000 of) the map's photons of the distance to their `nused`-th
