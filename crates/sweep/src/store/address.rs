@@ -34,7 +34,7 @@ const ADDRESS_ALPHA: f32 = 4.0 / 7.0;
 
 /// The shadow fill's tolerance before it was a setting (`shadow_tolerance`): addresses
 /// leave the setting out at this value.
-const ADDRESS_SHADOW_TOLERANCE: f32 = 0.05;
+pub(super) const ADDRESS_SHADOW_TOLERANCE: f32 = 0.05;
 
 /// The parameters an address is taken over. A render whose estimator does not iterate
 /// (the path tracer, the point estimate, no multiple scattering) cannot depend on the

@@ -178,7 +178,29 @@ pub(crate) fn read_record(dir: &Path) -> Result<CellRecord> {
     let path = dir.join("cell.json");
     let text =
         std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))
+    let mut value: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+    fill_in_old_settings(&mut value);
+    serde_json::from_value(value).with_context(|| format!("parsing {}", path.display()))
+}
+
+/// Fills in the integrator settings a record written before they were written leaves out,
+/// as they were when it was rendered — read with today's defaults, such a record would
+/// claim a render it was not: `shadow_tolerance` did not exist before it was a setting
+/// (the fill's tolerance was 0.05; the default is 0.025 since), and `thin_below` was not
+/// written while it was 0 (the default is 0.5 since).
+fn fill_in_old_settings(record: &mut serde_json::Value) {
+    let integrator = record
+        .pointer_mut("/scene/integrator")
+        .and_then(|v| v.as_object_mut());
+    if let Some(integrator) = integrator {
+        integrator
+            .entry("shadow_tolerance")
+            .or_insert(serde_json::json!(super::address::ADDRESS_SHADOW_TOLERANCE));
+        integrator
+            .entry("thin_below")
+            .or_insert(serde_json::json!(0.0));
+    }
 }
 
 /// Writes a cell's record (`cell.json`) atomically.
@@ -342,4 +364,29 @@ pub(crate) fn write_reference_record(dir: &Path, record: &ReferenceRecord) -> Re
         serde_json::to_string_pretty(record)?.as_bytes(),
     )?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fill_in_old_settings;
+
+    #[test]
+    fn old_records_read_back_with_the_settings_they_were_rendered_with() {
+        let mut old = serde_json::json!({ "scene": { "integrator": { "nused": 150 } } });
+        fill_in_old_settings(&mut old);
+        let integrator = &old["scene"]["integrator"];
+        assert_eq!(
+            integrator["shadow_tolerance"].as_f64(),
+            Some(0.05f32 as f64)
+        );
+        assert_eq!(integrator["thin_below"].as_f64(), Some(0.0));
+        assert_eq!(integrator["nused"].as_u64(), Some(150));
+        // A record that writes them keeps what it wrote.
+        let written = serde_json::json!({
+            "scene": { "integrator": { "shadow_tolerance": 0.025, "thin_below": 0.5 } }
+        });
+        let mut read = written.clone();
+        fill_in_old_settings(&mut read);
+        assert_eq!(read, written);
+    }
 }
