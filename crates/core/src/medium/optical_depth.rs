@@ -116,11 +116,11 @@ impl Medium {
         self.optical_depth_walk(ray, t0, t1, tau_max, f32::INFINITY)
     }
 
-    /// [`Medium::optical_depth_exact`] capped at [`blocked_depth`](crate::blocked_depth)`(tau_max)` (the depth of
-    /// a shadow ray, where anything past `tau_max` blocks the light): the cell walk stops
-    /// as soon as τ surely exceeds the blocked depth, instead of crossing the rest of the
-    /// volume, and the result is `optical_depth_exact(…).min(blocked_depth(tau_max))` to
-    /// the bit.
+    /// [`Medium::optical_depth_exact`] capped at
+    /// [`blocked_depth`](crate::blocked_depth)`(tau_max)` (the depth of a shadow ray, where
+    /// anything past `tau_max` blocks the light): the cell walk stops as soon as τ surely
+    /// exceeds the blocked depth, instead of crossing the rest of the volume, and the
+    /// result is `optical_depth_exact(…).min(blocked_depth(tau_max))` to the bit.
     pub fn optical_depth_capped(&self, ray: &Ray, t0: f32, t1: f32, tau_max: f32) -> f32 {
         let blocked = blocked_depth(tau_max);
         self.optical_depth_walk(ray, t0, t1, tau_max, blocked)
