@@ -103,7 +103,7 @@ impl MajorantGrid {
     /// The runs of adjacent non-empty bricks along `ray` over `[t_min, t_max]`, as
     /// parameter intervals: the segments with σ_maj > 0 merged, walked over the occupancy
     /// bits instead of the majorants (the same DDA, so the same interval ends to the bit).
-    pub fn occupied_runs(&self, ray: &Ray, t_min: f32, t_max: f32) -> OccupiedRuns<'_> {
+    pub(super) fn occupied_runs(&self, ray: &Ray, t_min: f32, t_max: f32) -> OccupiedRuns<'_> {
         OccupiedRuns {
             grid: self,
             walk: BrickWalk::new(self, ray, t_min, t_max),
@@ -291,7 +291,7 @@ impl Iterator for MajorantSegments<'_> {
 /// Iterator over the runs of adjacent non-empty bricks, `(t_min, t_max)`
 /// ([`MajorantGrid::occupied_runs`]).
 #[derive(Debug, Clone)]
-pub struct OccupiedRuns<'a> {
+pub(super) struct OccupiedRuns<'a> {
     grid: &'a MajorantGrid,
     walk: BrickWalk,
 }

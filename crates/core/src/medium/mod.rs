@@ -26,7 +26,7 @@ use glam::Vec3;
 
 pub use colour::ColourTransfer;
 pub use free_path::{FreePath, sample_interaction_march, sample_interaction_thesis};
-pub use majorant::{MajorantGrid, MajorantSegment, MajorantSegments, OccupiedRuns};
+pub use majorant::{MajorantGrid, MajorantSegment, MajorantSegments};
 pub use optical_depth::blocked_depth;
 pub use phase::Phase;
 pub use sigma::{
@@ -350,7 +350,7 @@ impl Medium {
         // Two passes, so the points' memory reads overlap instead of waiting on each other
         // behind a branch: first every point's empty-cell bit (points outside the box
         // answered from the density), keeping the cells that are not empty; then their
-        // corners. The count is the same as asking `holds_medium` point by point.
+        // corners. The count is the same as asking `density(p) > 0` point by point.
         let mut pending = [([0usize; 3], [0.0f32; 3]); BALL_POINTS + 1];
         let mut n_pending = 0;
         let mut inside = 0;
