@@ -316,11 +316,8 @@ impl Iterator for OccupiedRuns<'_> {
 
 #[cfg(test)]
 mod tests {
-    use glam::Vec3;
-
     use super::CrossingAxis;
-    use crate::math::Ray;
-    use crate::medium::test_media::phantom_medium as medium;
+    use crate::medium::test_media::{phantom_medium as medium, random_ray};
 
     #[test]
     fn the_crossing_mask_picks_the_axis_the_branches_pick() {
@@ -359,10 +356,7 @@ mod tests {
         for name in ["foot", "engine", "sphere"] {
             let m = medium(name, 40, None, 10.0);
             for _ in 0..300 {
-                let origin = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
-                let direction = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5;
-                let ray = Ray::new(origin, direction.normalize());
-                let (t0, t1) = m.clip(&ray).unwrap();
+                let (ray, t0, t1) = random_ray(&m, &mut rng);
                 let mut expected = Vec::new();
                 let mut run: Option<(f32, f32)> = None;
                 for seg in m.segments(&ray, t0, t1) {

@@ -441,8 +441,21 @@ impl Medium {
 /// Media for unit tests: procedural phantoms with the thesis's σ mapping.
 #[cfg(test)]
 pub(crate) mod test_media {
+    use glam::Vec3;
+
     use super::{Medium, MediumSettings, SigmaMapping, Split};
+    use crate::math::{Ray, Rng};
     use crate::volume::{PhantomParams, Volume};
+
+    /// A ray from a random point of the unit box in a random direction, and its interval
+    /// inside `m`'s box.
+    pub(crate) fn random_ray(m: &Medium, rng: &mut Rng) -> (Ray, f32, f32) {
+        let origin = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+        let direction = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5;
+        let ray = Ray::new(origin, direction.normalize());
+        let (t0, t1) = m.clip(&ray).expect("a ray from inside the box");
+        (ray, t0, t1)
+    }
 
     /// The phantom `name` at `res`³ voxels (optional densities), σt(d_min) = `t`, albedo 0.8.
     pub(crate) fn phantom_medium(

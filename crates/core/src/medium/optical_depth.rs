@@ -255,7 +255,7 @@ mod tests {
 
     use super::{CompactDensity, blocked_depth};
     use crate::math::Ray;
-    use crate::medium::test_media::phantom_medium as medium;
+    use crate::medium::test_media::{phantom_medium as medium, random_ray};
 
     #[test]
     fn floor_matches_the_library_floor() {
@@ -276,10 +276,7 @@ mod tests {
                 panic!("a phantom has at most 256 distinct values")
             };
             for _ in 0..200 {
-                let origin = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
-                let direction = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5;
-                let ray = Ray::new(origin, direction.normalize());
-                let (t0, t1) = m.clip(&ray).unwrap();
+                let (ray, t0, t1) = random_ray(&m, &mut rng);
                 let values = m.integrate_cells(&ray, t0, t1, m.density.values(), f32::INFINITY);
                 let indexed = m.integrate_cells(&ray, t0, t1, bytes, f32::INFINITY);
                 assert_eq!(values.to_bits(), indexed.to_bits(), "{name} {ray:?}");
@@ -294,10 +291,7 @@ mod tests {
         for name in ["foot", "engine", "head"] {
             let m = medium(name, 40, None, 80.0);
             for _ in 0..300 {
-                let origin = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
-                let direction = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5;
-                let ray = Ray::new(origin, direction.normalize());
-                let (t0, t1) = m.clip(&ray).unwrap();
+                let (ray, t0, t1) = random_ray(&m, &mut rng);
                 let full = m.optical_depth_exact(&ray, t0, t1, f32::INFINITY);
                 for tau_max in [0.5, 2.0, 6.9, 30.0, f32::INFINITY] {
                     let blocked = blocked_depth(tau_max);
