@@ -10,7 +10,7 @@
 //! (or two) per voxel indexes them exactly: the loop reads the same `f32` values, and the
 //! optical depth is the same to the bit.
 
-use crate::volume::Grid;
+use crate::volume::{Grid, Voxels, corner_offsets};
 
 /// A density grid's values as indices into the table of its distinct values.
 #[derive(Debug, Clone)]
@@ -19,28 +19,6 @@ pub(super) enum CompactDensity {
     Byte(Indexed<u8, 256>),
     /// At most 65 536 distinct values: two bytes per voxel.
     Word(Indexed<u16, 65536>),
-}
-
-/// Voxel values read by linear index: the grid's own `f32`s, or a compact copy.
-pub(super) trait Voxels {
-    /// The eight corners of the cell whose lower corner has linear index `base`, the upper
-    /// ones `step` further along x, y and z (x fastest, as [`super::optical_depth`] orders
-    /// them).
-    fn corners(&self, base: usize, step: [usize; 3]) -> [f32; 8];
-}
-
-/// The corner offsets of a cell in the order of [`Voxels::corners`].
-#[inline]
-fn offsets([sx, sy, sz]: [usize; 3]) -> [usize; 8] {
-    [0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz]
-}
-
-impl Voxels for [f32] {
-    #[inline]
-    fn corners(&self, base: usize, step: [usize; 3]) -> [f32; 8] {
-        let block = &self[base..=base + step[0] + step[1] + step[2]];
-        offsets(step).map(|o| block[o])
-    }
 }
 
 /// Per voxel (x fastest), the position of its value in a table of `N` values (unused
@@ -55,7 +33,7 @@ impl<I: Copy + Into<usize>, const N: usize> Voxels for Indexed<I, N> {
     #[inline]
     fn corners(&self, base: usize, step: [usize; 3]) -> [f32; 8] {
         let block = &self.index[base..=base + step[0] + step[1] + step[2]];
-        offsets(step).map(|o| self.table[block[o].into()])
+        corner_offsets(step).map(|o| self.table[block[o].into()])
     }
 }
 

@@ -37,8 +37,8 @@ pub use transfer::{Pgm, TransferFunction, TransferKind, TransferParams, parse_pg
 
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Ray};
-use crate::volume::{Grid, NormalizationRecord, Reconstruction, Volume};
-use compact_density::{CompactDensity, Voxels};
+use crate::volume::{Grid, NormalizationRecord, Reconstruction, Volume, Voxels, trilinear_corners};
+use compact_density::CompactDensity;
 
 /// Default majorant brick edge in voxels (a 256³ volume gets 64³ bricks). Small bricks skip
 /// more empty space inside bone-only transfer functions; measured on the foot preset, 4
@@ -376,16 +376,13 @@ impl Medium {
     /// there is one: the same value to the bit.
     #[inline]
     fn trilinear_compact(&self, cell: [usize; 3], fraction: [f32; 3]) -> f32 {
-        let dims = self.density.dims();
-        let pitch = [1, dims[0], dims[0] * dims[1]];
-        let base = cell[0] + pitch[1] * cell[1] + pitch[2] * cell[2];
-        let step = [0, 1, 2].map(|a| if dims[a] > 1 { pitch[a] } else { 0 });
+        let (base, step) = self.density.cell_corners(cell);
         let corners = match self.compact_density() {
             Some(CompactDensity::Byte(bytes)) => bytes.corners(base, step),
             Some(CompactDensity::Word(words)) => words.corners(base, step),
             None => self.density.values().corners(base, step),
         };
-        optical_depth::trilinear(&corners, Vec3::from(fraction))
+        trilinear_corners(&corners, fraction)
     }
 
     /// The majorant bricks.

@@ -14,10 +14,10 @@
 use glam::Vec3;
 
 use super::Medium;
-use super::compact_density::{CompactDensity, Voxels};
+use super::compact_density::CompactDensity;
 use super::majorant::CrossingAxis;
 use crate::math::Ray;
-use crate::volume::Reconstruction;
+use crate::volume::{Reconstruction, Voxels, trilinear_corners};
 
 /// A 3-D DDA over unit cells of a continuous coordinate `c(t) = origin + t · direction`:
 /// yields the parameter intervals of the successive cells in `[t_min, t_max]`.
@@ -85,19 +85,6 @@ impl Iterator for CellWalk {
 fn floor_i64(x: f32) -> i64 {
     let truncated = x as i64;
     truncated - i64::from(x < truncated as f32)
-}
-
-/// Trilinear interpolation of a cell's corners (x fastest) at local coordinates in [0, 1]³,
-/// in the order of operations of `Grid::trilinear_clamped` (so the same value to the bit).
-#[inline]
-pub(super) fn trilinear(c: &[f32; 8], f: Vec3) -> f32 {
-    let x00 = c[0] + (c[1] - c[0]) * f.x;
-    let x10 = c[2] + (c[3] - c[2]) * f.x;
-    let x01 = c[4] + (c[5] - c[4]) * f.x;
-    let x11 = c[6] + (c[7] - c[6]) * f.x;
-    let y0 = x00 + (x10 - x00) * f.y;
-    let y1 = x01 + (x11 - x01) * f.y;
-    y0 + (y1 - y0) * f.z
 }
 
 /// The optical depth past which a light counts as blocked, for a cap `tau_max` (one more
@@ -225,8 +212,8 @@ impl Medium {
             let corners = voxels.corners(lo[0] + lo[1] * pitch[1] + lo[2] * pitch[2], step);
             let base = Vec3::new(cell[0] as f32, cell[1] as f32, cell[2] as f32);
             let local = |c: Vec3| (c - base).clamp(Vec3::ZERO, Vec3::ONE);
-            let fm = trilinear(&corners, local(cm));
-            let f1 = trilinear(&corners, local(origin + direction * t1));
+            let fm = trilinear_corners(&corners, local(cm).to_array());
+            let f1 = trilinear_corners(&corners, local(origin + direction * t1).to_array());
             sum += (t1 - t0) * (f0 + 4.0 * fm + f1);
             f0 = f1;
             if sum > stop {

@@ -10,6 +10,43 @@ use serde::{Deserialize, Serialize};
 
 use crate::math::Aabb;
 
+/// Voxel values read by linear index: a grid's own `f32`s, or a compact copy of them
+/// (`medium`'s indexed density).
+pub(crate) trait Voxels {
+    /// The eight corners of the cell whose lower corner has linear index `base`, the upper
+    /// ones `step` further along x, y and z (x fastest, as [`trilinear_corners`] takes
+    /// them).
+    fn corners(&self, base: usize, step: [usize; 3]) -> [f32; 8];
+}
+
+/// The corner offsets of a cell in the order of [`Voxels::corners`].
+#[inline]
+pub(crate) fn corner_offsets([sx, sy, sz]: [usize; 3]) -> [usize; 8] {
+    [0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz]
+}
+
+impl Voxels for [f32] {
+    #[inline]
+    fn corners(&self, base: usize, step: [usize; 3]) -> [f32; 8] {
+        let block = &self[base..=base + step[0] + step[1] + step[2]];
+        corner_offsets(step).map(|o| block[o])
+    }
+}
+
+/// Trilinear interpolation of a cell's corners (x fastest) at fractions `f` in [0, 1]³:
+/// along x, then y, then z. Every trilinear value of the renderer comes from here, so the
+/// grid and its compact copy give the same value to the bit.
+#[inline]
+pub(crate) fn trilinear_corners(c: &[f32; 8], f: [f32; 3]) -> f32 {
+    let x00 = c[0] + (c[1] - c[0]) * f[0];
+    let x10 = c[2] + (c[3] - c[2]) * f[0];
+    let x01 = c[4] + (c[5] - c[4]) * f[0];
+    let x11 = c[6] + (c[7] - c[6]) * f[0];
+    let y0 = x00 + (x10 - x00) * f[1];
+    let y1 = x01 + (x11 - x01) * f[1];
+    y0 + (y1 - y0) * f[2]
+}
+
 /// How values between voxel centres are reconstructed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -115,20 +152,21 @@ impl Grid {
     /// inside the ray's clipped interval); points outside read the nearest edge cell.
     #[inline]
     pub fn trilinear_clamped(&self, p: Vec3) -> f32 {
-        let ([x0, y0, z0], [tx, ty, tz]) = self.trilinear_cell(p);
-        let [nx, ny, nz] = self.dims;
-        let dx = usize::from(nx > 1);
-        let sy = if ny > 1 { nx } else { 0 };
-        let sz = if nz > 1 { nx * ny } else { 0 };
-        let i = x0 + nx * (y0 + ny * z0);
-        let v = &self.values;
-        let c00 = v[i] + (v[i + dx] - v[i]) * tx;
-        let c10 = v[i + sy] + (v[i + sy + dx] - v[i + sy]) * tx;
-        let c01 = v[i + sz] + (v[i + sz + dx] - v[i + sz]) * tx;
-        let c11 = v[i + sy + sz] + (v[i + sy + sz + dx] - v[i + sy + sz]) * tx;
-        let c0 = c00 + (c10 - c00) * ty;
-        let c1 = c01 + (c11 - c01) * ty;
-        c0 + (c1 - c0) * tz
+        let (cell, fraction) = self.trilinear_cell(p);
+        let (base, step) = self.cell_corners(cell);
+        trilinear_corners(&self.values.corners(base, step), fraction)
+    }
+
+    /// The linear index of `cell`'s lower corner voxel and the steps to its upper corners
+    /// along x, y and z (0 along an axis one voxel wide, where the corners coincide), as
+    /// [`Voxels::corners`] takes them.
+    #[inline]
+    pub(crate) fn cell_corners(&self, cell: [usize; 3]) -> (usize, [usize; 3]) {
+        let [nx, ny, _] = self.dims;
+        let pitch = [1, nx, nx * ny];
+        let base = cell[0] + pitch[1] * cell[1] + pitch[2] * cell[2];
+        let step = [0, 1, 2].map(|a| if self.dims[a] > 1 { pitch[a] } else { 0 });
+        (base, step)
     }
 
     /// The lower corner of the cell of voxel centres that [`Self::trilinear_clamped`]

@@ -27,6 +27,7 @@ pub use formats::{
     write_metaimage, write_nrrd,
 };
 pub use grid::{Grid, Reconstruction};
+pub(crate) use grid::{Voxels, corner_offsets, trilinear_corners};
 pub use phantom::PhantomParams;
 pub use registry::{
     DATASETS, DatasetInfo, DatasetOverrides, DatasetStatus, SearchPath, find_dataset, load_dataset,
