@@ -7,10 +7,18 @@
 #
 # Needs the real volumes on the search path ($VOLPHOT_DATA, ./data or ../shared/data).
 # Finished cells are reused; delete a report folder to render it again.
+#
+# The studies share their path-traced references through one pool (`sweep run
+# --reference-pool`, default reports/reference-pool, or $VOLPHOT_REFERENCE_POOL): a scene two
+# studies compare against is traced once, refined to the larger sample count, and each
+# study gets the image it would have rendered alone. The studies run in the order of their
+# references' sample counts (64, 128, 256, 1024), so every reference is refined, never
+# traced again from the start.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --locked --bin sweep
-for experiment in quickstart artifacts single_vs_multiple albedo stepsize free_path transparent cost consistency alpha presets; do
+pool="${VOLPHOT_REFERENCE_POOL:-reports/reference-pool}"
+for experiment in quickstart artifacts free_path transparent single_vs_multiple albedo stepsize cost consistency alpha presets; do
   echo "== $experiment"
-  ./target/release/sweep "experiments/$experiment.toml" --quiet "$@"
+  ./target/release/sweep "experiments/$experiment.toml" --quiet --reference-pool "$pool" "$@"
 done

@@ -635,3 +635,79 @@ spp = {spp}
         assert!((c16 - c256).abs() < 0.5 * (r16 - r256), "{all}");
     }
 }
+
+#[test]
+fn studies_share_references_through_a_pool_and_get_the_images_they_would_alone() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Three studies of one scene that ask for 16, 4 and 24 samples per pixel.
+    let study = |name: &str, spp: u32| {
+        write_experiment(
+            tmp.path(),
+            name,
+            "phantom-engine.toml",
+            &format!(
+                r#"
+[set]
+"volume.phantom.resolution" = [24, 24, 24]
+"camera.resolution" = [24, 24]
+"integrator.volume_photons" = 2000
+"integrator.stepsize" = 0.004
+"sigma.t" = 20
+[reference]
+method = "path"
+spp = {spp}
+"#
+            ),
+        )
+    };
+    let studies = [("a", 16), ("b", 4), ("c", 24)].map(|(n, spp)| (n, study(n, spp)));
+    let pool = tmp.path().join("pool");
+    let run = |exp: &Path, out: &Path, pooled: bool| {
+        let mut cmd = sweep();
+        cmd.arg("run").arg(exp).arg("--output").arg(out);
+        if pooled {
+            cmd.arg("--reference-pool").arg(&pool);
+        }
+        String::from_utf8_lossy(&run_ok(&mut cmd).stderr).into_owned()
+    };
+    let reference = |out: &Path| {
+        let dir = std::fs::read_dir(out.join("references"))
+            .unwrap()
+            .flatten()
+            .find(|e| e.path().is_dir())
+            .expect("a reference folder")
+            .path();
+        let key = dir.file_name().unwrap().to_string_lossy().into_owned();
+        (key, std::fs::read(dir.join("reference.exr")).unwrap())
+    };
+    for (name, exp) in &studies {
+        let alone = tmp.path().join(format!("{name}-alone"));
+        let pooled = tmp.path().join(format!("{name}-pooled"));
+        run(exp, &alone, false);
+        let stderr = run(exp, &pooled, true);
+        let ((key, alone_exr), (pooled_key, pooled_exr)) = (reference(&alone), reference(&pooled));
+        assert_eq!(key, pooled_key);
+        // `c` (24) is refined from the 16-pass state `a` left; `b` (4) rendered anew.
+        assert!(
+            alone_exr == pooled_exr,
+            "study {name}: the pooled reference differs from the one rendered alone"
+        );
+        assert!(stderr.contains("1 reference(s) rendered"), "{stderr}");
+        let state = std::fs::read_to_string(pool.join(&key).join("state/reference.json")).unwrap();
+        let passes = if *name == "c" { 24 } else { 16 };
+        assert!(state.contains(&format!("\"passes\": {passes}")), "{state}");
+    }
+    // Another output folder of study `a` takes its reference from the pool as it is.
+    let again = tmp.path().join("a-again");
+    let stderr = run(&studies[0].1, &again, true);
+    assert!(stderr.contains("0 reference(s) rendered"), "{stderr}");
+    let (key, exr) = reference(&again);
+    assert!(exr == reference(&tmp.path().join("a-alone")).1);
+    let mut kept: Vec<String> = std::fs::read_dir(pool.join(&key))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    kept.sort();
+    assert_eq!(kept, ["16", "24", "4", "state"]);
+}

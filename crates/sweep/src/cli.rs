@@ -2,7 +2,7 @@
 //! low-level arguments once into the validated options the rest of the program uses
 //! (ripgrep's low/high args).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -319,6 +319,11 @@ pub(crate) struct RunArgs {
     /// rest of the grid goes on.
     #[arg(long, value_name = "SECONDS", value_parser = parse_timeout)]
     pub(crate) cell_timeout: Option<std::time::Duration>,
+    /// Share path-traced references with other studies through this folder: one another
+    /// study rendered at the same samples per pixel is copied from it, one rendered at
+    /// fewer is refined (to the image a whole run gives, bit for bit).
+    #[arg(long, value_name = "DIR")]
+    pub(crate) reference_pool: Option<PathBuf>,
     /// Where cells are rendered.
     #[arg(long, value_enum, default_value_t = BackendChoice::Local)]
     pub(crate) backend: BackendChoice,
@@ -490,6 +495,7 @@ impl SlurmArgs {
     pub(crate) fn options(
         &self,
         cell_timeout: Option<std::time::Duration>,
+        reference_pool: Option<&Path>,
         dry_run: bool,
         wait: bool,
     ) -> SlurmOptions {
@@ -504,6 +510,8 @@ impl SlurmArgs {
             dry_run,
             wait,
             cell_timeout,
+            reference_pool: reference_pool
+                .map(|p| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf())),
         }
     }
 }
@@ -529,8 +537,12 @@ impl RunArgs {
             self.backend,
             self.jobs,
             self.threads,
-            self.slurm
-                .options(self.cell_timeout, self.dry_run, self.wait),
+            self.slurm.options(
+                self.cell_timeout,
+                self.reference_pool.as_deref(),
+                self.dry_run,
+                self.wait,
+            ),
         )
     }
 }
@@ -571,7 +583,7 @@ impl TuneArgs {
             (None, false) => TuneMode::Search,
         };
         // A tune waits for each rung: its results decide the next.
-        let slurm = self.slurm.options(self.cell_timeout, false, true);
+        let slurm = self.slurm.options(self.cell_timeout, None, false, true);
         Ok(TuneOptions {
             experiment: self.experiment.clone(),
             output: self.output.clone(),

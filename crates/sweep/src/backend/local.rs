@@ -29,6 +29,7 @@ impl Backend for Local {
             jobs: self.jobs,
             quiet: run.quiet,
             time_limit: run.cell_timeout,
+            reference_pool: run.reference_pool.clone(),
         };
         let summary = pool.install(|| render_cells(exp, run.cells, &plan, &options))?;
         print_summary(&exp.name, &summary);

@@ -15,7 +15,7 @@ pub(crate) use slurm::{Slurm, SlurmOptions, compress_ranges, plan_submission, pr
 
 use crate::plan::{CellSpec, Experiment, Quality};
 use crate::render::Selection;
-use crate::store::OutputDir;
+use crate::store::{OutputDir, ReferencePool};
 
 /// One run of an experiment: the plan and what to do with it.
 pub(crate) struct Run<'a> {
@@ -37,6 +37,8 @@ pub(crate) struct Run<'a> {
     pub(crate) report: bool,
     /// Time limit per render (a march group or a reference).
     pub(crate) cell_timeout: Option<std::time::Duration>,
+    /// References shared with other output folders.
+    pub(crate) reference_pool: Option<ReferencePool>,
 }
 
 /// How a run ended.

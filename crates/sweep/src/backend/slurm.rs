@@ -49,6 +49,8 @@ pub(crate) struct SlurmOptions {
     pub(crate) wait: bool,
     /// `--cell-timeout` for the tasks' `sweep run`.
     pub(crate) cell_timeout: Option<std::time::Duration>,
+    /// `--reference-pool` for the tasks' `sweep run` (absolute).
+    pub(crate) reference_pool: Option<PathBuf>,
 }
 
 /// Submits the run as a Slurm job array plus a collect job.
@@ -267,6 +269,12 @@ impl Scripts<'_> {
             .unwrap_or_default();
         if let Some(limit) = options.cell_timeout {
             threads += &format!(" --cell-timeout {}", limit.as_secs_f64());
+        }
+        if let Some(pool) = &options.reference_pool {
+            threads += &format!(
+                " --reference-pool {}",
+                shell_quote(&pool.display().to_string())
+            );
         }
         let task_cells: Vec<String> = tasks
             .iter()
@@ -654,6 +662,36 @@ mod tests {
             assert!(line.contains(verb), "{name}: {line}");
             assert!(line.contains("--no-report"), "{name}: {line}");
         }
+    }
+
+    #[test]
+    fn array_tasks_share_the_runs_reference_pool() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = format!(
+            "{}[camera]\nresolution = [8, 8]\n",
+            volphot::test_util::SMALL_SCENE
+        );
+        std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+        let path = dir.path().join("grid.toml");
+        std::fs::write(&path, "scene = \"s.toml\"\n[reference]\nspp = 4\n").unwrap();
+        let exp = Experiment::load(&path).unwrap();
+        let cells = exp.plan(Quality::Default).unwrap();
+        let task_line = |options: &SlurmOptions| {
+            let plan =
+                plan_submission(&exp, &cells, dir.path(), options, Quality::Default, None).unwrap();
+            let line = plan.array_script.lines().find(|l| l.contains("--cells"));
+            line.unwrap().to_string()
+        };
+        assert!(!task_line(&SlurmOptions::default()).contains("--reference-pool"));
+        let pooled = SlurmOptions {
+            reference_pool: Some(PathBuf::from("/shared/reference pool")),
+            ..SlurmOptions::default()
+        };
+        let line = task_line(&pooled);
+        assert!(
+            line.contains(" --reference-pool '/shared/reference pool'"),
+            "{line}"
+        );
     }
 
     #[test]

@@ -7,7 +7,7 @@ use anyhow::Result;
 use crate::backend::Run;
 use crate::cli::RunArgs;
 use crate::plan::Experiment;
-use crate::store::OutputDir;
+use crate::store::{OutputDir, ReferencePool};
 
 /// Plans the experiment and hands it to the chosen backend.
 pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
@@ -36,6 +36,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
         quiet: args.quiet,
         report: !args.no_report,
         cell_timeout: args.cell_timeout,
+        reference_pool: args.reference_pool.clone().map(ReferencePool::new),
     })?;
     Ok(outcome.exit_code())
 }

@@ -11,8 +11,8 @@ use super::Job;
 use super::scenes::Caches;
 use crate::analyse::{analyse_cell, compare_with_reference, displayed};
 use crate::store::{
-    CELL_FILES, CellLock, CellRecord, CellTimings, FileCheck, OutputDir, StagedDir, VERSION,
-    hostname, is_done, try_lock_cell, write_record,
+    CELL_FILES, CellLock, CellRecord, CellTimings, FileCheck, OutputDir, ReferencePool, StagedDir,
+    VERSION, hostname, is_done, try_lock_cell, write_record,
 };
 
 /// Environment switch for tests: cell indices (comma-separated) whose rendering fails on
@@ -45,6 +45,8 @@ pub(crate) struct GroupContext<'a> {
     pub(crate) panic_on: &'a [usize],
     /// Time limit per render (a march group or a reference).
     pub(crate) time_limit: Option<std::time::Duration>,
+    /// References shared with other output folders.
+    pub(crate) pool: Option<&'a ReferencePool>,
 }
 
 impl GroupContext<'_> {

@@ -29,7 +29,9 @@ use reference::{ReferenceJob, ensure_reference};
 pub(crate) use scenes::Caches;
 
 use crate::plan::{CellSpec, Experiment, toml_to_json};
-use crate::store::{CellState, OutputDir, PlanRecord, cell_state, clean_stale, hostname};
+use crate::store::{
+    CellState, OutputDir, PlanRecord, ReferencePool, cell_state, clean_stale, hostname,
+};
 
 /// Which cells of a plan a run renders.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -146,6 +148,8 @@ pub(crate) struct RenderOptions {
     pub(crate) quiet: bool,
     /// Time limit per render (a march group or a reference).
     pub(crate) time_limit: Option<std::time::Duration>,
+    /// References shared with other output folders (`--reference-pool`).
+    pub(crate) reference_pool: Option<ReferencePool>,
 }
 
 /// What a run did.
@@ -225,6 +229,7 @@ pub(crate) fn render_cells(
             fail_on: &cells_from_env(FAIL_CELLS_ENV),
             panic_on: &cells_from_env(PANIC_CELLS_ENV),
             time_limit: opts.time_limit,
+            pool: opts.reference_pool.as_ref(),
         };
         let (references, failed) = render_references(exp, jobs.iter().chain(&done), &ctx, &multi);
         summary.references = references;
@@ -553,6 +558,7 @@ mod tests {
             jobs: 1,
             quiet: true,
             time_limit: None,
+            reference_pool: None,
         };
         let first = render_cells(&exp, &cells, &plan, &options).unwrap();
         assert_eq!((first.rendered, first.marches, first.skipped), (4, 2, 0));

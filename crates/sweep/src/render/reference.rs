@@ -1,16 +1,18 @@
 //! References: rendered (or refined to more samples) under their own lock, so parallel
-//! runs and cluster tasks share one reference per physics.
+//! runs and cluster tasks share one reference per physics; with a reference pool
+//! ([`ReferencePool`]) studies share them too.
 
+use std::path::Path;
 use std::time::Instant;
 
-use anyhow::Result;
-use volphot::{Film, ReferenceAccumulator, Scene, write_png};
+use anyhow::{Context, Result};
+use volphot::{Film, ReferenceAccumulator, Scene, SceneParams, write_png};
 
 use super::group::GroupContext;
 use crate::plan::{CellSpec, ReferenceMethod, ReferenceSpec, reference_params};
 use crate::store::{
-    FileCheck, OutputDir, ReferenceRecord, StagedDir, VERSION, first_mismatch, lock_reference,
-    read_reference_record, write_reference_record,
+    FileCheck, OutputDir, ReferencePool, ReferenceRecord, StagedDir, VERSION, lock_reference,
+    verified_reference, write_reference_record,
 };
 
 /// What a reference needs: where it goes, the cell that defines its physics, how it is made.
@@ -21,7 +23,8 @@ pub(crate) struct ReferenceJob<'a> {
     pub(crate) spec: &'a ReferenceSpec,
 }
 
-/// Renders (or refines) a reference under its own lock; returns whether work was done.
+/// Renders (or refines) a reference under its own lock, through the reference pool when
+/// there is one; returns whether it was rendered here (not found ready).
 pub(crate) fn ensure_reference(
     job: &ReferenceJob<'_>,
     ctx: &GroupContext<'_>,
@@ -30,51 +33,97 @@ pub(crate) fn ensure_reference(
     let dir = job.out.reference(job.key);
     // Blocking: another task may be rendering this reference right now.
     let lock = lock_reference(job.out, job.key)?;
-    let params = reference_params(&job.cell.params, job.spec)?;
-    let existing = match read_reference_record(&dir) {
-        Ok(r) => match first_mismatch(&dir, &r.files).or_else(|| {
-            (!dir.join("reference.exr").is_file()).then(|| "reference.exr is missing".into())
-        }) {
-            None => Some(r),
-            Some(why) => {
-                multi.suspend(|| {
-                    eprintln!(
-                        "reference {} is damaged ({why}); rendering it again",
-                        job.key
-                    )
-                });
-                None
-            }
-        },
-        Err(_) => None,
-    };
+    let existing = verified_reference(&dir, "reference.exr").unwrap_or_else(|why| {
+        multi.suspend(|| {
+            eprintln!(
+                "reference {} is damaged ({why}); rendering it again",
+                job.key
+            )
+        });
+        None
+    });
     if let Some(r) = &existing
         && (job.spec.method != ReferenceMethod::Path || r.passes >= job.spec.spp)
     {
         return Ok(false);
     }
+    let params = reference_params(&job.cell.params, job.spec)?;
     let scene = ctx.caches.scene(&params, &job.cell.base_dir, ctx.search)?;
+    let rendered = match (job.spec.method, ctx.pool) {
+        (ReferenceMethod::Path, Some(pool)) => from_pool(job, &scene, &params, pool, ctx, multi)?,
+        _ => {
+            let resumed = existing
+                .map(|r| -> Result<_> {
+                    let film = Film::read_exr(&dir.join("reference.exr"))?;
+                    Ok((ReferenceAccumulator::from_film(&film, r.passes)?, r.seconds))
+                })
+                .transpose()?;
+            let made = render(job, &scene, resumed, ctx, multi)?;
+            write_reference(&dir, &made.film, &scene, &made.record(job, params, &scene))?;
+            true
+        }
+    };
+    drop(lock);
+    Ok(rendered)
+}
+
+/// A reference just rendered: its film, passes and the seconds spent on it in total.
+struct Made {
+    film: Film,
+    passes: u32,
+    seconds: f64,
+    /// The path tracer's accumulator (`None` for a photon-mapped reference).
+    accumulator: Option<ReferenceAccumulator>,
+}
+
+impl Made {
+    fn record(
+        &self,
+        job: &ReferenceJob<'_>,
+        scene_params: SceneParams,
+        scene: &Scene,
+    ) -> ReferenceRecord {
+        ReferenceRecord {
+            files: Vec::new(),
+            key: job.key.to_string(),
+            method: job.spec.method,
+            passes: self.passes,
+            seconds: self.seconds,
+            scene: scene_params,
+            volume: scene.volume_source().clone(),
+            version: VERSION.to_string(),
+        }
+    }
+}
+
+/// Renders the reference, path-traced on from `resumed` (an accumulator and the seconds
+/// already spent on it) when given.
+fn render(
+    job: &ReferenceJob<'_>,
+    scene: &Scene,
+    resumed: Option<(ReferenceAccumulator, f64)>,
+    ctx: &GroupContext<'_>,
+    multi: &indicatif::MultiProgress,
+) -> Result<Made> {
     let bar = crate::progress::bar(multi, scene.camera().height() as u64, "reference", "rows");
     let start = Instant::now();
     let progress = |rows| bar.set_position(rows);
     let control = ctx.control(&progress);
-    let (film, passes) = match job.spec.method {
+    let before = resumed.as_ref().map_or(0.0, |(_, s)| *s);
+    let (film, passes, accumulator) = match job.spec.method {
         ReferenceMethod::Path => {
-            let mut acc = match &existing {
-                Some(r) => ReferenceAccumulator::from_film(
-                    &Film::read_exr(&dir.join("reference.exr"))?,
-                    r.passes,
-                )?,
+            let mut acc = match resumed {
+                Some((acc, _)) => acc,
                 None => ReferenceAccumulator::new(
                     scene.camera().width() as usize,
                     scene.camera().height() as usize,
                 ),
             };
             let more = job.spec.spp - acc.passes();
-            acc.add_passes(&scene, more, &control)?;
-            (acc.film(), acc.passes())
+            acc.add_passes(scene, more, &control)?;
+            (acc.film(), acc.passes(), Some(acc))
         }
-        ReferenceMethod::Photon => (volphot::render(&scene, &control)?.film, 0),
+        ReferenceMethod::Photon => (volphot::render(scene, &control)?.film, 0, None),
     };
     bar.finish_and_clear();
     multi.remove(&bar);
@@ -83,19 +132,94 @@ pub(crate) fn ensure_reference(
         "reference {} has non-finite pixels",
         job.key
     );
-    let record = ReferenceRecord {
-        files: Vec::new(),
-        key: job.key.to_string(),
-        method: job.spec.method,
+    Ok(Made {
+        film,
         passes,
-        seconds: start.elapsed().as_secs_f64() + existing.as_ref().map_or(0.0, |r| r.seconds),
-        scene: params,
-        volume: scene.volume_source().clone(),
-        version: VERSION.to_string(),
+        seconds: before + start.elapsed().as_secs_f64(),
+        accumulator,
+    })
+}
+
+/// Copies the pool's reference of the job's passes into the output folder, rendering it
+/// into the pool first when the pool lacks it; returns whether it was rendered.
+fn from_pool(
+    job: &ReferenceJob<'_>,
+    scene: &Scene,
+    params: &SceneParams,
+    pool: &ReferencePool,
+    ctx: &GroupContext<'_>,
+    multi: &indicatif::MultiProgress,
+) -> Result<bool> {
+    // Blocking: another study or task may be rendering it into the pool right now.
+    let _pool_lock = pool.lock(job.key)?;
+    let pooled = pool.film(job.key, job.spec.spp);
+    let rendered = match verified_reference(&pooled, "reference.exr") {
+        Ok(Some(_)) => false,
+        found => {
+            if let Err(why) = found {
+                multi.suspend(|| {
+                    eprintln!(
+                        "{} is damaged ({why}); rendering it again",
+                        pooled.display()
+                    )
+                });
+            }
+            render_into_pool(job, scene, params, pool, ctx, multi)?;
+            true
+        }
     };
-    write_reference(&dir, &film, &scene, &record)?;
-    drop(lock);
-    Ok(true)
+    copy_reference(&pooled, &job.out.reference(job.key))?;
+    Ok(rendered)
+}
+
+/// Renders the job's passes into the pool, refined from the pool's state when it holds no
+/// more passes than wanted (the same bits as a whole run), and keeps the new state when it
+/// holds more passes than the old.
+fn render_into_pool(
+    job: &ReferenceJob<'_>,
+    scene: &Scene,
+    params: &SceneParams,
+    pool: &ReferencePool,
+    ctx: &GroupContext<'_>,
+    multi: &indicatif::MultiProgress,
+) -> Result<()> {
+    let state_dir = pool.state(job.key);
+    let state = verified_reference(&state_dir, STATE_FILE).ok().flatten();
+    let resumed = match &state {
+        Some(r) if r.passes <= job.spec.spp => Some((
+            ReferenceAccumulator::read_state(&state_dir.join(STATE_FILE))?,
+            r.seconds,
+        )),
+        _ => None,
+    };
+    let made = render(job, scene, resumed, ctx, multi)?;
+    let record = made.record(job, params.clone(), scene);
+    write_reference(&pool.film(job.key, made.passes), &made.film, scene, &record)?;
+    if let Some(acc) = &made.accumulator
+        && state.is_none_or(|r| r.passes < made.passes)
+    {
+        let staged = StagedDir::new(&state_dir)?;
+        acc.write_state(&staged.path().join(STATE_FILE))?;
+        let mut record = record;
+        record.files = vec![FileCheck::of(staged.path(), STATE_FILE)?];
+        write_reference_record(staged.path(), &record)?;
+        staged.commit()?;
+    }
+    Ok(())
+}
+
+/// The pool's accumulator state file.
+const STATE_FILE: &str = "state.bin";
+
+/// Copies a finished reference folder (its images and record) to `to`, replacing it.
+fn copy_reference(from: &Path, to: &Path) -> Result<()> {
+    let staged = StagedDir::new(to)?;
+    for name in ["reference.exr", "reference.png", "reference.json"] {
+        std::fs::copy(from.join(name), staged.path().join(name)).with_context(|| {
+            format!("copying {} to {}", from.join(name).display(), to.display())
+        })?;
+    }
+    staged.commit()
 }
 
 /// Writes `reference.exr`, `reference.png` and `reference.json` into a staged folder and

@@ -76,8 +76,12 @@ pub(crate) struct ReferenceLock {
 /// Locks reference `key`, waiting while another process renders it.
 pub(crate) fn lock_reference(out: &OutputDir, key: &str) -> Result<ReferenceLock> {
     std::fs::create_dir_all(out.root().join("references"))?;
-    let path = out.root().join("references").join(format!("{key}.lock"));
-    let file = lock_file(&path)?;
+    lock_path(&out.root().join("references").join(format!("{key}.lock")))
+}
+
+/// Locks the file at `path` exclusively, waiting while another process holds it.
+pub(super) fn lock_path(path: &Path) -> Result<ReferenceLock> {
+    let file = lock_file(path)?;
     file.lock()
         .with_context(|| format!("locking {}", path.display()))?;
     Ok(ReferenceLock { _file: file })

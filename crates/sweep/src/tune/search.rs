@@ -300,6 +300,7 @@ impl Search<'_> {
             quiet: self.opts.quiet,
             report: false,
             cell_timeout: self.opts.cell_timeout,
+            reference_pool: None,
         };
         let backend = &self.opts.backend;
         self.bar.suspend(|| backend.execute(&run))?;
@@ -416,6 +417,7 @@ fn render_planned(
         quiet: opts.quiet,
         report: false,
         cell_timeout: opts.cell_timeout,
+        reference_pool: None,
     })?;
     Ok(outcome.exit_code())
 }
