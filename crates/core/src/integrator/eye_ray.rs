@@ -24,6 +24,7 @@ use super::thinning::{BANDS, Bands};
 use crate::math::{Ray, Rng};
 use crate::medium::blocked_depth;
 use crate::scene::{Light, Quadrature, ShadowEstimator};
+use crate::volume::CellCursor;
 
 /// Which evaluations an eye ray makes: the scene's, or every one of them (the thinning
 /// error compares both, [`super::cache_error`]).
@@ -83,9 +84,10 @@ impl Marcher<'_> {
         let u = rng.uniform();
         let mut eye_t = 1.0f32;
         let mut tau = 0.0f32;
+        let mut cursor = CellCursor::default();
         self.medium.march(ray, t0, t1, s.stepsize, u, |t, w| {
             let x = ray.at(t);
-            let sigma_t = self.medium.sigma_t_in_box(x);
+            let sigma_t = self.medium.sigma_t_marched(&mut cursor, x);
             if sigma_t <= 0.0 {
                 return ControlFlow::Continue(());
             }

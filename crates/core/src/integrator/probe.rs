@@ -114,7 +114,7 @@ stepsize = {stepsize}
         assert!((samples - 100.0).abs() <= 1.0, "{samples}");
         // Dense: the march stops where T = termination, at ln(1/termination)/σt.
         let dense = constant_box(40.0, 0.001);
-        let sigma_t = dense.medium().sigma_t_in_box(glam::Vec3::splat(0.5)) as f64;
+        let sigma_t = dense.medium().sigma_t(glam::Vec3::splat(0.5)) as f64;
         let termination = dense.integrator().termination as f64;
         let expected = (1.0 / termination).ln() / sigma_t / 0.001;
         assert!(

@@ -6,6 +6,7 @@ use std::ops::ControlFlow;
 
 use super::Medium;
 use crate::math::Ray;
+use crate::volume::CellCursor;
 
 impl Medium {
     /// Visits the ray-marching samples `t_i = t0 + (i + u)·step` (for `[t0, t1]` inside the
@@ -71,8 +72,10 @@ impl Medium {
         tau_max: f32,
     ) -> f32 {
         let mut tau = 0.0f32;
+        // Several samples per cell at the thesis's steps: their corners are read once.
+        let mut cursor = CellCursor::default();
         self.march(ray, t0, t1, step, u, |t, w| {
-            tau += self.sigma_t_in_box(ray.at(t)) * w;
+            tau += self.sigma_t_marched(&mut cursor, ray.at(t)) * w;
             if tau > tau_max {
                 ControlFlow::Break(())
             } else {

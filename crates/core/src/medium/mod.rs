@@ -37,7 +37,9 @@ pub use transfer::{Pgm, TransferFunction, TransferKind, TransferParams, parse_pg
 
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Ray};
-use crate::volume::{Grid, NormalizationRecord, Reconstruction, Volume, Voxels, trilinear_corners};
+use crate::volume::{
+    CellCursor, Grid, NormalizationRecord, Reconstruction, Volume, Voxels, trilinear_corners,
+};
 use compact_density::CompactDensity;
 
 /// Default majorant brick edge in voxels (a 256³ volume gets 64³ bricks). Small bricks skip
@@ -247,11 +249,14 @@ impl Medium {
     }
 
     /// σt at a point of a ray's clipped interval (inside the box up to rounding), without
-    /// the outside test: the hot path of marching.
+    /// the outside test: the hot path of marching. The samples of one marched ray come in
+    /// order, and `cursor` keeps the corners of the cell the last one fell in (at the
+    /// thesis's steps several samples share a cell; the same value to the bit as reading
+    /// them again).
     #[inline]
-    pub(crate) fn sigma_t_in_box(&self, p: Vec3) -> f32 {
+    pub(crate) fn sigma_t_marched(&self, cursor: &mut CellCursor, p: Vec3) -> f32 {
         let d = match self.reconstruction {
-            Reconstruction::Trilinear => self.density.trilinear_clamped(p),
+            Reconstruction::Trilinear => cursor.trilinear(&self.density, p),
             Reconstruction::Nearest => self.density.nearest(p),
         };
         self.sigma_t_base * d

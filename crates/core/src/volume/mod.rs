@@ -26,8 +26,8 @@ pub use formats::{
     check_dims, is_nifti, read_dicom_series, read_metaimage, read_nifti, read_nrrd, read_voxels,
     write_metaimage, write_nrrd,
 };
+pub(crate) use grid::{CellCursor, Voxels, corner_offsets, trilinear_corners};
 pub use grid::{Grid, Reconstruction};
-pub(crate) use grid::{Voxels, corner_offsets, trilinear_corners};
 pub use phantom::PhantomParams;
 pub use registry::{
     DATASETS, DatasetInfo, DatasetOverrides, DatasetStatus, SearchPath, find_dataset, load_dataset,
