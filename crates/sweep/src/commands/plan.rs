@@ -14,8 +14,10 @@ use crate::render::Caches;
 
 /// Wall-clock seconds on 2 cores, measured on the thesis's headline scene (real foot 256³,
 /// σt(d_min) 80, three spot lights, 512²) in the `--paper` runs of `cost/` and `stepsize/`
-/// (2026-12-02; `reports/REPRODUCTION.md`, "At the thesis's resolution"): the per-pixel
-/// costs at stepsize 0.0005. They scale with the eye march's length in samples, probed on
+/// (2026-12-02, commit 85f5af9; `reports/REPRODUCTION.md`, "At the thesis's resolution"):
+/// the per-pixel costs at stepsize 0.0005. The speed-ups since are folded in as measured
+/// (2026-12-04): one-thread headline renders of that build and of today's started together,
+/// one per core, the same images (marked "today" below). They scale with the eye march's length in samples, probed on
 /// each scene before planning (a dense medium stops the march early, a thin one lets it
 /// cross the volume: `consistency --paper` took 0.36× the unprobed estimate at σt 290 and
 /// 5.8× on the head at σt 6); marched shadow rays also grow with 1/stepsize.
@@ -24,16 +26,20 @@ mod calibration {
     /// rays): the costs below are per pixel at this march length.
     pub(super) const SAMPLES_PER_RAY: f64 = 28.1;
     /// Single scattering with the exact shadow integral, per pixel and light (single +
-    /// multiple at nused 150 took 14.6 s, multiple alone 7.6 s, with three lights).
-    pub(super) const SINGLE_EXACT: f64 = 8.9e-6;
-    /// Single scattering with marched shadow rays (§6), per pixel and light.
-    pub(super) const SINGLE_MARCHED: f64 = 48e-6;
-    /// Multiple scattering, per pixel: a fixed part and a part per photon gathered.
-    pub(super) const MULTIPLE: f64 = 15.4e-6;
-    /// Multiple scattering, per pixel and photon of `nused`.
-    pub(super) const MULTIPLE_PER_NUSED: f64 = 0.068e-6;
-    /// One path-traced sample of a reference.
-    pub(super) const REFERENCE_SAMPLE: f64 = 1.0e-6;
+    /// multiple at nused 150 took 14.6 s, multiple alone 7.6 s, with three lights: 8.9e-6;
+    /// today 0.76× that: 36.0 → 29.6 CPU-s with both layers, 19.4 → 17.0 multiple alone).
+    pub(super) const SINGLE_EXACT: f64 = 6.8e-6;
+    /// Single scattering with marched shadow rays (§6), per pixel and light (48e-6; today
+    /// 0.97× at stepsize 0.0005: 106.5 → 103.7 CPU-s beside the multiple layer).
+    pub(super) const SINGLE_MARCHED: f64 = 46.8e-6;
+    /// Multiple scattering, per pixel: a fixed part and a part per photon gathered
+    /// (15.4e-6; today 0.88×, as the multiple layer alone above).
+    pub(super) const MULTIPLE: f64 = 13.5e-6;
+    /// Multiple scattering, per pixel and photon of `nused` (0.068e-6; today 0.88×).
+    pub(super) const MULTIPLE_PER_NUSED: f64 = 0.060e-6;
+    /// One path-traced sample of a reference (1.0e-6; today 0.80×: 8 spp of the headline
+    /// frame in 5.37 → 4.30 CPU-s).
+    pub(super) const REFERENCE_SAMPLE: f64 = 0.80e-6;
     /// A cell's wall time beyond its render, per pixel: saving the film and its images,
     /// the metrics, its share of the report (the runs' wall time less their cells' and
     /// references' times: 0.2–2.4 s per 512² cell).
