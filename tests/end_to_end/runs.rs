@@ -710,4 +710,18 @@ spp = {spp}
         .collect();
     kept.sort();
     assert_eq!(kept, ["16", "24", "4", "state"]);
+    // A damaged state is said so and left out: `c` is rendered whole, to the same image.
+    let state = pool.join(&key).join("state/state.bin");
+    let mut bytes = std::fs::read(&state).unwrap();
+    let last = bytes.len() - 1;
+    bytes[last] ^= 1;
+    std::fs::write(&state, bytes).unwrap();
+    std::fs::remove_dir_all(pool.join(&key).join("24")).unwrap();
+    let redone = tmp.path().join("c-again");
+    let stderr = run(&studies[2].1, &redone, true);
+    assert!(
+        stderr.contains("is damaged") && stderr.contains("rendering without it"),
+        "{stderr}"
+    );
+    assert!(reference(&redone).1 == reference(&tmp.path().join("c-alone")).1);
 }

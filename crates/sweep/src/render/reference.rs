@@ -184,7 +184,15 @@ fn render_into_pool(
     multi: &indicatif::MultiProgress,
 ) -> Result<()> {
     let state_dir = pool.state(job.key);
-    let state = verified_reference(&state_dir, STATE_FILE).ok().flatten();
+    let state = verified_reference(&state_dir, STATE_FILE).unwrap_or_else(|why| {
+        multi.suspend(|| {
+            eprintln!(
+                "{} is damaged ({why}); rendering without it",
+                state_dir.display()
+            )
+        });
+        None
+    });
     let resumed = match &state {
         Some(r) if r.passes <= job.spec.spp => Some((
             ReferenceAccumulator::read_state(&state_dir.join(STATE_FILE))?,
