@@ -724,4 +724,19 @@ spp = {spp}
         "{stderr}"
     );
     assert!(reference(&redone).1 == reference(&tmp.path().join("c-alone")).1);
+    // The plan counts what the pool holds: `a`'s 16 passes whole, 24 of 48 in part.
+    let planned = |exp: &Path| {
+        let out = run_ok(
+            sweep()
+                .arg("plan")
+                .arg(exp)
+                .arg("--reference-pool")
+                .arg(&pool),
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let whole = planned(&studies[0].1);
+    assert!(whole.contains("holds 1 of them and 0 in part"), "{whole}");
+    let part = planned(&study("d", 48));
+    assert!(part.contains("holds 0 of them and 1 in part"), "{part}");
 }

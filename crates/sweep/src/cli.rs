@@ -244,6 +244,10 @@ pub(crate) struct PlanArgs {
     /// List the cells of a grid larger than the experiment's `max_cells`.
     #[arg(long, short)]
     pub(crate) yes: bool,
+    /// Count references the pool (`sweep run --reference-pool`) already holds as done, and
+    /// those it holds at fewer samples per pixel as refined from there.
+    #[arg(long, value_name = "DIR")]
+    pub(crate) reference_pool: Option<PathBuf>,
 }
 
 /// Where cells are rendered.

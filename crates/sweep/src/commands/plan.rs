@@ -9,8 +9,9 @@ use volphot::{
 };
 
 use crate::cli::PlanArgs;
-use crate::plan::{CellSpec, Experiment, reference_params};
+use crate::plan::{CellSpec, Experiment, ReferenceMethod, reference_key, reference_params};
 use crate::render::Caches;
+use crate::store::{ReferencePool, STATE_FILE, verified_reference};
 
 /// Wall-clock seconds on 2 cores, measured on the thesis's headline scene (real foot 256³,
 /// σt(d_min) 80, three spot lights, 512²) in the `--paper` runs of `cost/` and `stepsize/`
@@ -192,21 +193,68 @@ impl Probes {
     }
 }
 
-/// The estimated seconds of the experiment's references (each distinct one once) and
-/// their number.
-fn reference_seconds(exp: &Experiment, cells: &[CellSpec]) -> Result<(f64, usize)> {
-    let Some(spec) = &exp.reference else {
-        return Ok((0.0, 0));
-    };
-    let mut seen = HashSet::new();
-    let mut seconds = 0.0;
-    for c in cells {
-        let p = reference_params(&c.params, spec)?;
-        if seen.insert(serde_json::to_string(&p)?) {
-            seconds += estimate_cost(&p, None).alone();
+/// The estimate of the experiment's references: each distinct one once, less the passes a
+/// reference pool already holds.
+#[derive(Debug, Default)]
+struct ReferenceEstimate {
+    seconds: f64,
+    count: usize,
+    /// References the pool holds at the wanted passes, and those it holds in part.
+    pooled: usize,
+    partly_pooled: usize,
+}
+
+impl ReferenceEstimate {
+    fn of(exp: &Experiment, cells: &[CellSpec], pool: Option<&ReferencePool>) -> Result<Self> {
+        let mut estimate = ReferenceEstimate::default();
+        let Some(spec) = &exp.reference else {
+            return Ok(estimate);
+        };
+        let mut seen = HashSet::new();
+        for c in cells {
+            let p = reference_params(&c.params, spec)?;
+            if !seen.insert(serde_json::to_string(&p)?) {
+                continue;
+            }
+            let held = match pool {
+                Some(pool) if spec.method == ReferenceMethod::Path => {
+                    pooled_passes(pool, &reference_key(c, spec)?, spec.spp)
+                }
+                _ => 0,
+            };
+            estimate.pooled += usize::from(held == spec.spp);
+            estimate.partly_pooled += usize::from(held > 0 && held < spec.spp);
+            let left = 1.0 - f64::from(held) / f64::from(spec.spp.max(1));
+            estimate.seconds += estimate_cost(&p, None).alone() * left;
+        }
+        estimate.count = seen.len();
+        Ok(estimate)
+    }
+
+    /// What the pool took off, for the summary line.
+    fn pool_note(&self, pool: Option<&ReferencePool>) -> String {
+        match pool {
+            Some(pool) => format!(
+                "; the pool {} holds {} of them and {} in part",
+                pool.root().display(),
+                self.pooled,
+                self.partly_pooled
+            ),
+            None => String::new(),
         }
     }
-    Ok((seconds, seen.len()))
+}
+
+/// The passes of reference `key` a pool already holds toward `spp`: all of them when it
+/// holds the `spp`-pass reference, its state's when that has no more than `spp`.
+fn pooled_passes(pool: &ReferencePool, key: &str, spp: u32) -> u32 {
+    if let Ok(Some(_)) = verified_reference(&pool.film(key, spp), "reference.exr") {
+        return spp;
+    }
+    match verified_reference(&pool.state(key), STATE_FILE) {
+        Ok(Some(state)) if state.passes <= spp => state.passes,
+        _ => 0,
+    }
 }
 
 /// Prints each cell's estimated cost and the total: cells of one march group pay their
@@ -216,6 +264,7 @@ fn print_estimates(
     cells: &[CellSpec],
     hashes: &[String],
     plan_seconds: f64,
+    pool: Option<&ReferencePool>,
 ) -> Result<()> {
     println!("{:>5}  {:<16}  {:>9}  cell", "index", "hash", "est. [s]");
     let mut alone = 0.0;
@@ -242,17 +291,18 @@ fn print_estimates(
             c.label()
         );
     }
-    let references = reference_seconds(exp, cells)?;
+    let references = ReferenceEstimate::of(exp, cells, pool)?;
     let shared = own + marches.values().sum::<f64>();
     println!(
-        "estimated {:.0} s of rendering on 2 cores ({:.1} h): {:.0} s for the cells in {} march group(s) that share eye rays ({:.0} s if each were rendered alone) and {:.0} s for {} reference(s). Rough: calibrated on the foot at σt 80 and scaled by {}. Planned in {:.3} s.",
-        shared + references.0,
-        (shared + references.0) / 3600.0,
+        "estimated {:.0} s of rendering on 2 cores ({:.1} h): {:.0} s for the cells in {} march group(s) that share eye rays ({:.0} s if each were rendered alone) and {:.0} s for {} reference(s){}. Rough: calibrated on the foot at σt 80 and scaled by {}. Planned in {:.3} s.",
+        shared + references.seconds,
+        (shared + references.seconds) / 3600.0,
         shared,
         marches.len(),
         alone,
-        references.0,
-        references.1,
+        references.seconds,
+        references.count,
+        references.pool_note(pool),
         probes.summary(),
         plan_seconds + probes.seconds
     );
@@ -287,7 +337,8 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
         quality,
         cells.len()
     );
-    print_estimates(&exp, &cells, &hashes, plan_seconds)?;
+    let pool = args.reference_pool.clone().map(ReferencePool::new);
+    print_estimates(&exp, &cells, &hashes, plan_seconds, pool.as_ref())?;
     if cells.len() > exp.max_cells {
         println!(
             "note: {} cells exceed the experiment's max_cells = {}; `sweep run` will ask for --yes",

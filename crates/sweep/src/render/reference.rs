@@ -11,8 +11,8 @@ use volphot::{Film, ReferenceAccumulator, Scene, SceneParams, write_png};
 use super::group::GroupContext;
 use crate::plan::{CellSpec, ReferenceMethod, ReferenceSpec, reference_params};
 use crate::store::{
-    FileCheck, OutputDir, ReferencePool, ReferenceRecord, StagedDir, VERSION, lock_reference,
-    verified_reference, write_reference_record,
+    FileCheck, OutputDir, ReferencePool, ReferenceRecord, STATE_FILE, StagedDir, VERSION,
+    lock_reference, verified_reference, write_reference_record,
 };
 
 /// What a reference needs: where it goes, the cell that defines its physics, how it is made.
@@ -215,9 +215,6 @@ fn render_into_pool(
     }
     Ok(())
 }
-
-/// The pool's accumulator state file.
-const STATE_FILE: &str = "state.bin";
 
 /// Copies a finished reference folder (its images and record) to `to`, replacing it.
 fn copy_reference(from: &Path, to: &Path) -> Result<()> {

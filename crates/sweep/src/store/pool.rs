@@ -20,6 +20,9 @@ use anyhow::{Context, Result};
 use super::lock::{ReferenceLock, lock_path};
 use super::{ReferenceRecord, first_mismatch, read_reference_record};
 
+/// The accumulator state's file in `<key>/state/`.
+pub(crate) const STATE_FILE: &str = "state.bin";
+
 /// A folder of references shared between output folders.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct ReferencePool {
@@ -30,6 +33,11 @@ impl ReferencePool {
     /// The pool in `root` (created when first written).
     pub(crate) fn new(root: impl Into<PathBuf>) -> Self {
         ReferencePool { root: root.into() }
+    }
+
+    /// The pool's folder.
+    pub(crate) fn root(&self) -> &Path {
+        &self.root
     }
 
     /// `<key>/<passes>`: the reference `key` at `passes` samples per pixel.
