@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates every committed study under reports/ (see reports/REPRODUCTION.md):
 #
-#   scripts/reproduce.sh            # default quality (25 min on 2 cores, measured)
+#   scripts/reproduce.sh            # default quality (37 min on 2 cores with the build, measured)
 #   scripts/reproduce.sh --paper    # thesis resolution and the full grids (5 h 10 min on 2 cores,
 #                                   # measured; reports/REPRODUCTION.md)
 #
