@@ -58,3 +58,26 @@ fn a_local_dry_run_is_refused_instead_of_rendering() {
         "cells were rendered"
     );
 }
+
+#[test]
+fn a_reference_pool_inside_the_output_folder_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let experiment = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../experiments/quickstart.toml"
+    );
+    let out = tmp.path().join("out");
+    let result = sweep()
+        .args(["run", experiment, "--output"])
+        .arg(&out)
+        .arg("--reference-pool")
+        .arg(out.join("references"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        !result.status.success() && err.contains("inside the output folder"),
+        "{err}"
+    );
+    assert!(!out.join("cells").exists(), "cells were rendered");
+}

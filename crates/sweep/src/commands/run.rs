@@ -1,5 +1,6 @@
 //! `sweep run` (and `sweep FILE.toml`).
 
+use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Result;
@@ -26,6 +27,11 @@ pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
         .output
         .clone()
         .unwrap_or_else(|| crate::plan::default_output(&exp, quality));
+    let reference_pool = args
+        .reference_pool
+        .as_deref()
+        .map(|pool| checked_pool(pool, &output))
+        .transpose()?;
     let outcome = backend.execute(&Run {
         experiment: &exp,
         cells: &cells,
@@ -36,7 +42,20 @@ pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
         quiet: args.quiet,
         report: !args.no_report,
         cell_timeout: args.cell_timeout,
-        reference_pool: args.reference_pool.clone().map(ReferencePool::new),
+        reference_pool,
     })?;
     Ok(outcome.exit_code())
+}
+
+/// A reference pool outside the output folder: inside it, writing the study's own copy of
+/// a reference would replace the pool's folder of the same key.
+fn checked_pool(pool: &Path, output: &Path) -> Result<ReferencePool> {
+    let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    anyhow::ensure!(
+        !absolute(pool).starts_with(absolute(output)),
+        "--reference-pool {}: inside the output folder {}; expected a folder of its own that several studies share (scripts/reproduce.sh uses reports/reference-pool)",
+        pool.display(),
+        output.display()
+    );
+    Ok(ReferencePool::new(pool))
 }
