@@ -11,7 +11,7 @@ use volphot::{
 use crate::cli::PlanArgs;
 use crate::plan::{CellSpec, Experiment, ReferenceMethod, reference_key, reference_params};
 use crate::render::Caches;
-use crate::store::{ReferencePool, STATE_FILE, verified_reference};
+use crate::store::ReferencePool;
 
 /// Wall-clock seconds on 2 cores, measured on the thesis's headline scene (real foot 256³,
 /// σt(d_min) 80, three spot lights, 512²) in the `--paper` runs of `cost/` and `stepsize/`
@@ -218,7 +218,7 @@ impl ReferenceEstimate {
             }
             let held = match pool {
                 Some(pool) if spec.method == ReferenceMethod::Path => {
-                    pooled_passes(pool, &reference_key(c, spec)?, spec.spp)
+                    pool.held_passes(&reference_key(c, spec)?, spec.spp)
                 }
                 _ => 0,
             };
@@ -242,18 +242,6 @@ impl ReferenceEstimate {
             ),
             None => String::new(),
         }
-    }
-}
-
-/// The passes of reference `key` a pool already holds toward `spp`: all of them when it
-/// holds the `spp`-pass reference, its state's when that has no more than `spp`.
-fn pooled_passes(pool: &ReferencePool, key: &str, spp: u32) -> u32 {
-    if let Ok(Some(_)) = verified_reference(&pool.film(key, spp), "reference.exr") {
-        return spp;
-    }
-    match verified_reference(&pool.state(key), STATE_FILE) {
-        Ok(Some(state)) if state.passes <= spp => state.passes,
-        _ => 0,
     }
 }
 

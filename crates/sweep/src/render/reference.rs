@@ -11,8 +11,8 @@ use volphot::{Film, ReferenceAccumulator, Scene, SceneParams, write_png};
 use super::group::GroupContext;
 use crate::plan::{CellSpec, ReferenceMethod, ReferenceSpec, reference_params};
 use crate::store::{
-    FileCheck, OutputDir, ReferencePool, ReferenceRecord, STATE_FILE, StagedDir, VERSION,
-    lock_reference, verified_reference, write_reference_record,
+    FileCheck, OutputDir, ReferencePool, ReferenceRecord, StagedDir, VERSION, lock_reference,
+    verified_reference, write_reference_record,
 };
 
 /// What a reference needs: where it goes, the cell that defines its physics, how it is made.
@@ -33,15 +33,12 @@ pub(crate) fn ensure_reference(
     let dir = job.out.reference(job.key);
     // Blocking: another task may be rendering this reference right now.
     let lock = lock_reference(job.out, job.key)?;
-    let existing = verified_reference(&dir, "reference.exr").unwrap_or_else(|why| {
-        multi.suspend(|| {
-            eprintln!(
-                "reference {} is damaged ({why}); rendering it again",
-                job.key
-            )
-        });
-        None
-    });
+    let existing = unless_damaged(
+        verified_reference(&dir, "reference.exr"),
+        &format!("reference {}", job.key),
+        "rendering it again",
+        multi,
+    );
     if let Some(r) = &existing
         && (job.spec.method != ReferenceMethod::Path || r.passes >= job.spec.spp)
     {
@@ -153,21 +150,12 @@ fn from_pool(
     // Blocking: another study or task may be rendering it into the pool right now.
     let _pool_lock = pool.lock(job.key)?;
     let pooled = pool.film(job.key, job.spec.spp);
-    let rendered = match verified_reference(&pooled, "reference.exr") {
-        Ok(Some(_)) => false,
-        found => {
-            if let Err(why) = found {
-                multi.suspend(|| {
-                    eprintln!(
-                        "{} is damaged ({why}); rendering it again",
-                        pooled.display()
-                    )
-                });
-            }
-            render_into_pool(job, scene, params, pool, ctx, multi)?;
-            true
-        }
-    };
+    let found = pool.finished(job.key, job.spec.spp);
+    let what = pooled.display().to_string();
+    let rendered = unless_damaged(found, &what, "rendering it again", multi).is_none();
+    if rendered {
+        render_into_pool(job, scene, params, pool, ctx, multi)?;
+    }
     copy_reference(&pooled, &job.out.reference(job.key))?;
     Ok(rendered)
 }
@@ -183,21 +171,15 @@ fn render_into_pool(
     ctx: &GroupContext<'_>,
     multi: &indicatif::MultiProgress,
 ) -> Result<()> {
-    let state_dir = pool.state(job.key);
-    let state = verified_reference(&state_dir, STATE_FILE).unwrap_or_else(|why| {
-        multi.suspend(|| {
-            eprintln!(
-                "{} is damaged ({why}); rendering without it",
-                state_dir.display()
-            )
-        });
-        None
-    });
+    let what = pool.state(job.key).display().to_string();
+    let state = unless_damaged(
+        pool.saved_state(job.key),
+        &what,
+        "rendering without it",
+        multi,
+    );
     let resumed = match &state {
-        Some(r) if r.passes <= job.spec.spp => Some((
-            ReferenceAccumulator::read_state(&state_dir.join(STATE_FILE))?,
-            r.seconds,
-        )),
+        Some(r) if r.passes <= job.spec.spp => Some((pool.read_state(job.key)?, r.seconds)),
         _ => None,
     };
     let made = render(job, scene, resumed, ctx, multi)?;
@@ -206,14 +188,23 @@ fn render_into_pool(
     if let Some(acc) = &made.accumulator
         && state.is_none_or(|r| r.passes < made.passes)
     {
-        let staged = StagedDir::new(&state_dir)?;
-        acc.write_state(&staged.path().join(STATE_FILE))?;
-        let mut record = record;
-        record.files = vec![FileCheck::of(staged.path(), STATE_FILE)?];
-        write_reference_record(staged.path(), &record)?;
-        staged.commit()?;
+        pool.keep_state(job.key, acc, record)?;
     }
     Ok(())
+}
+
+/// The record `found`, or `None` with a line saying why `what` was passed over and what
+/// happens `then` when it is damaged.
+fn unless_damaged(
+    found: Result<Option<ReferenceRecord>, String>,
+    what: &str,
+    then: &str,
+    multi: &indicatif::MultiProgress,
+) -> Option<ReferenceRecord> {
+    found.unwrap_or_else(|why| {
+        multi.suspend(|| eprintln!("{what} is damaged ({why}); {then}"));
+        None
+    })
 }
 
 /// Copies a finished reference folder (its images and record) to `to`, replacing it.

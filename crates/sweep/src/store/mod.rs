@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 
 pub(crate) use address::{cell_hash, reference_hash, volume_identity};
 pub(crate) use lock::{CellLock, cell_is_locked, lock_folder, lock_reference, try_lock_cell};
-pub(crate) use pool::{ReferencePool, STATE_FILE, verified_reference};
+pub(crate) use pool::{ReferencePool, verified_reference};
 pub(crate) use records::*;
 pub(crate) use staging::{StagedDir, clean_stale};
 pub(crate) use verify::{CELL_FILES, CellState, FileCheck, cell_state, first_mismatch};

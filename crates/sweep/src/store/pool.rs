@@ -16,12 +16,16 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use volphot::ReferenceAccumulator;
 
 use super::lock::{ReferenceLock, lock_path};
-use super::{ReferenceRecord, first_mismatch, read_reference_record};
+use super::{
+    FileCheck, ReferenceRecord, StagedDir, first_mismatch, read_reference_record,
+    write_reference_record,
+};
 
 /// The accumulator state's file in `<key>/state/`.
-pub(crate) const STATE_FILE: &str = "state.bin";
+const STATE_FILE: &str = "state.bin";
 
 /// A folder of references shared between output folders.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -48,6 +52,55 @@ impl ReferencePool {
     /// `<key>/state`: the accumulator of `key` after the most passes rendered yet.
     pub(crate) fn state(&self, key: &str) -> PathBuf {
         self.root.join(key).join("state")
+    }
+
+    /// The record of the pool's reference `key` at `passes`, when it is there and checks
+    /// out (`Err`: why it does not).
+    pub(crate) fn finished(
+        &self,
+        key: &str,
+        passes: u32,
+    ) -> Result<Option<ReferenceRecord>, String> {
+        verified_reference(&self.film(key, passes), "reference.exr")
+    }
+
+    /// The record of `key`'s accumulator state, when it is there and checks out (`Err`: why
+    /// it does not).
+    pub(crate) fn saved_state(&self, key: &str) -> Result<Option<ReferenceRecord>, String> {
+        verified_reference(&self.state(key), STATE_FILE)
+    }
+
+    /// `key`'s accumulator state (check it with [`Self::saved_state`] first).
+    pub(crate) fn read_state(&self, key: &str) -> Result<ReferenceAccumulator> {
+        Ok(ReferenceAccumulator::read_state(
+            &self.state(key).join(STATE_FILE),
+        )?)
+    }
+
+    /// Replaces `key`'s accumulator state by `accumulator`, recorded as `record` says.
+    pub(crate) fn keep_state(
+        &self,
+        key: &str,
+        accumulator: &ReferenceAccumulator,
+        mut record: ReferenceRecord,
+    ) -> Result<()> {
+        let staged = StagedDir::new(&self.state(key))?;
+        accumulator.write_state(&staged.path().join(STATE_FILE))?;
+        record.files = vec![FileCheck::of(staged.path(), STATE_FILE)?];
+        write_reference_record(staged.path(), &record)?;
+        staged.commit()
+    }
+
+    /// The passes of reference `key` the pool holds toward `passes`: all of them when it
+    /// holds the `passes`-pass reference, its state's when that has no more.
+    pub(crate) fn held_passes(&self, key: &str, passes: u32) -> u32 {
+        if let Ok(Some(_)) = self.finished(key, passes) {
+            return passes;
+        }
+        match self.saved_state(key) {
+            Ok(Some(state)) if state.passes <= passes => state.passes,
+            _ => 0,
+        }
     }
 
     /// Locks `key` in the pool, waiting while another process (another study, a cluster
