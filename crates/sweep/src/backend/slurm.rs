@@ -629,14 +629,29 @@ fn wait(
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_tunes_array_tasks_rebuild_its_cells_with_sweep_tune() {
-        let dir = tempfile::tempdir().unwrap();
+    /// Experiment `name` (its `text`) over a small scene in `dir`.
+    fn experiment(dir: &Path, name: &str, text: &str) -> Experiment {
         let scene = format!(
             "{}[camera]\nresolution = [8, 8]\n",
             volphot::test_util::SMALL_SCENE
         );
-        std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+        std::fs::write(dir.join("s.toml"), scene).unwrap();
+        let path = dir.join(format!("{name}.toml"));
+        std::fs::write(&path, text).unwrap();
+        Experiment::load(&path).unwrap()
+    }
+
+    /// The line of `array.sh` that runs a task's cells.
+    fn task_line(exp: &Experiment, dir: &Path, options: &SlurmOptions) -> String {
+        let cells = exp.plan(Quality::Default).unwrap();
+        let plan = plan_submission(exp, &cells, dir, options, Quality::Default, None).unwrap();
+        let line = plan.array_script.lines().find(|l| l.contains("--cells"));
+        line.unwrap().to_string()
+    }
+
+    #[test]
+    fn a_tunes_array_tasks_rebuild_its_cells_with_sweep_tune() {
+        let dir = tempfile::tempdir().unwrap();
         let grid =
             "scene = \"s.toml\"\n[axes]\n\"integrator.nused\" = [5, 9]\n[reference]\nspp = 4\n";
         let tune = format!(
@@ -646,19 +661,8 @@ mod tests {
             ("grid", grid.to_string(), " run "),
             ("tune", tune, " tune "),
         ] {
-            let path = dir.path().join(format!("{name}.toml"));
-            std::fs::write(&path, text).unwrap();
-            let exp = Experiment::load(&path).unwrap();
-            let cells = exp.plan(Quality::Default).unwrap();
-            let options = SlurmOptions::default();
-            let plan = plan_submission(&exp, &cells, dir.path(), &options, Quality::Default, None)
-                .unwrap();
-            let line = plan
-                .array_script
-                .lines()
-                .find(|l| l.contains("--cells"))
-                .unwrap()
-                .to_string();
+            let exp = experiment(dir.path(), name, &text);
+            let line = task_line(&exp, dir.path(), &SlurmOptions::default());
             assert!(line.contains(verb), "{name}: {line}");
             assert!(line.contains("--no-report"), "{name}: {line}");
         }
@@ -667,27 +671,18 @@ mod tests {
     #[test]
     fn array_tasks_share_the_runs_reference_pool() {
         let dir = tempfile::tempdir().unwrap();
-        let scene = format!(
-            "{}[camera]\nresolution = [8, 8]\n",
-            volphot::test_util::SMALL_SCENE
+        let exp = experiment(
+            dir.path(),
+            "grid",
+            "scene = \"s.toml\"\n[reference]\nspp = 4\n",
         );
-        std::fs::write(dir.path().join("s.toml"), scene).unwrap();
-        let path = dir.path().join("grid.toml");
-        std::fs::write(&path, "scene = \"s.toml\"\n[reference]\nspp = 4\n").unwrap();
-        let exp = Experiment::load(&path).unwrap();
-        let cells = exp.plan(Quality::Default).unwrap();
-        let task_line = |options: &SlurmOptions| {
-            let plan =
-                plan_submission(&exp, &cells, dir.path(), options, Quality::Default, None).unwrap();
-            let line = plan.array_script.lines().find(|l| l.contains("--cells"));
-            line.unwrap().to_string()
-        };
-        assert!(!task_line(&SlurmOptions::default()).contains("--reference-pool"));
+        let line = task_line(&exp, dir.path(), &SlurmOptions::default());
+        assert!(!line.contains("--reference-pool"), "{line}");
         let pooled = SlurmOptions {
             reference_pool: Some(PathBuf::from("/shared/reference pool")),
             ..SlurmOptions::default()
         };
-        let line = task_line(&pooled);
+        let line = task_line(&exp, dir.path(), &pooled);
         assert!(
             line.contains(" --reference-pool '/shared/reference pool'"),
             "{line}"
