@@ -46,8 +46,14 @@ mod calibration {
     /// references' times: 0.2–2.4 s per 512² cell).
     pub(super) const RECORD: f64 = 4e-6;
     /// A progressive iteration's fixed-radius gathers against the k-NN gathers of the same
-    /// nused (`alpha/` at 512²: 64 iterations in 61–129 s a cell).
-    pub(super) const PROGRESSIVE_GATHER: f64 = 0.54;
+    /// nused, and its eye march per pixel: each iteration marches every eye ray again, and
+    /// thinning spaces out only the gathers (2026-12-04: the foot at 256², stepsize 0.001,
+    /// nused 50, 24 against 8 iterations, `thin_below` 0 and 0.5, twice each: 0.62 s and
+    /// 0.37 s an iteration, where the constants before said 0.33 s and 0.18 s; `alpha
+    /// --paper` took 2.1× its estimate for the same reason).
+    pub(super) const PROGRESSIVE_GATHER: f64 = 0.85;
+    /// See [`PROGRESSIVE_GATHER`].
+    pub(super) const PROGRESSIVE_MARCH: f64 = 2.7e-6;
     /// One beam-estimate pass, per pixel: the eye march and the photon spheres it crosses
     /// (`consistency/` at 512², 40 000 photons: 16 maps cost 0.21–0.57 s a map more than
     /// one, 0.42 s at the median on the foot and engine).
@@ -124,7 +130,9 @@ pub(crate) fn estimate_cost(p: &SceneParams, probe: Option<EyeProbe>) -> CellCos
         MsEstimator::Progressive | MsEstimator::Beam => {
             let pass = match (i.estimator, i.multiple) {
                 (_, false) => 0.0,
-                (MsEstimator::Progressive, true) => multiple * PROGRESSIVE_GATHER,
+                (MsEstimator::Progressive, true) => {
+                    multiple * PROGRESSIVE_GATHER + PROGRESSIVE_MARCH * march_length * eye_rays
+                }
                 (_, true) => BEAM_PASS * march_length * eye_rays,
             };
             CellCost {
@@ -432,6 +440,26 @@ mod tests {
     }
 
     #[test]
+    fn thinning_spares_a_progressive_iteration_its_gathers_but_not_its_march() {
+        let mut p = scene();
+        p.integrator.single = false;
+        p.integrator.estimator = MsEstimator::Progressive;
+        p.integrator.iterations = 10;
+        let samples = calibration::SAMPLES_PER_RAY;
+        let at = |gathers: f64| frame_probed(&p, EyeProbe { samples, gathers });
+        let (full, thinned) = (at(samples), at(0.4 * samples));
+        let march = 10.0 * calibration::PROGRESSIVE_MARCH * 512.0 * 512.0;
+        assert!(((thinned - march) / (full - march) - 0.4).abs() < 1e-9);
+        assert!(thinned / full > 0.4 + 0.05, "the march is a visible share");
+    }
+
+    /// [`frame`] with a probed march.
+    fn frame_probed(p: &SceneParams, probe: EyeProbe) -> f64 {
+        let [w, h] = p.camera.resolution;
+        estimate_cost(p, Some(probe)).alone() - (w * h) as f64 * calibration::RECORD
+    }
+
+    #[test]
     fn a_shared_march_is_paid_once_and_caches_and_iterations_scale_the_cost() {
         let p = scene();
         let points = estimate_cost(&p, None);
@@ -453,11 +481,13 @@ mod tests {
             0.0,
             "each iteration marches alone"
         );
-        // Single scattering once, then 16 cheaper fixed-radius passes.
-        let record = (512.0 * 512.0) * calibration::RECORD;
-        let expected =
-            points.march + 16.0 * calibration::PROGRESSIVE_GATHER * (points.own - record);
-        assert!((frame(&progressive) / expected - 1.0).abs() < 1e-9);
+        // Single scattering once, then 16 fixed-radius passes, each with its own march.
+        let pixels = 512.0 * 512.0;
+        let multiple = points.own - pixels * calibration::RECORD;
+        let pass = calibration::PROGRESSIVE_GATHER * multiple
+            + calibration::PROGRESSIVE_MARCH * pixels;
+        let expected = points.march + 16.0 * pass;
+        assert!((frame(&progressive) / expected - 1.0).abs() < 1e-6);
         // A beam pass walks the photons' spheres instead of gathering: far cheaper, and
         // independent of nused.
         let mut beams = progressive.clone();
