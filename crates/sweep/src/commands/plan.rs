@@ -484,8 +484,8 @@ mod tests {
         // Single scattering once, then 16 fixed-radius passes, each with its own march.
         let pixels = 512.0 * 512.0;
         let multiple = points.own - pixels * calibration::RECORD;
-        let pass = calibration::PROGRESSIVE_GATHER * multiple
-            + calibration::PROGRESSIVE_MARCH * pixels;
+        let pass =
+            calibration::PROGRESSIVE_GATHER * multiple + calibration::PROGRESSIVE_MARCH * pixels;
         let expected = points.march + 16.0 * pass;
         assert!((frame(&progressive) / expected - 1.0).abs() < 1e-6);
         // A beam pass walks the photons' spheres instead of gathering: far cheaper, and
