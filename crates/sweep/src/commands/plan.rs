@@ -374,8 +374,13 @@ mod tests {
     /// The frame's part of a cost: without the cell's record, which does not scale with
     /// the step, the caches or the lights (the scenes trace no photons).
     fn frame(p: &SceneParams) -> f64 {
+        frame_probed(p, None)
+    }
+
+    /// [`frame`] with the march probed as `probe`.
+    fn frame_probed(p: &SceneParams, probe: Option<EyeProbe>) -> f64 {
         let [w, h] = p.camera.resolution;
-        estimate_cost(p, None).alone() - (w * h) as f64 * calibration::RECORD
+        estimate_cost(p, probe).alone() - (w * h) as f64 * calibration::RECORD
     }
 
     #[test]
@@ -446,17 +451,11 @@ mod tests {
         p.integrator.estimator = MsEstimator::Progressive;
         p.integrator.iterations = 10;
         let samples = calibration::SAMPLES_PER_RAY;
-        let at = |gathers: f64| frame_probed(&p, EyeProbe { samples, gathers });
+        let at = |gathers: f64| frame_probed(&p, Some(EyeProbe { samples, gathers }));
         let (full, thinned) = (at(samples), at(0.4 * samples));
         let march = 10.0 * calibration::PROGRESSIVE_MARCH * 512.0 * 512.0;
         assert!(((thinned - march) / (full - march) - 0.4).abs() < 1e-9);
         assert!(thinned / full > 0.4 + 0.05, "the march is a visible share");
-    }
-
-    /// [`frame`] with a probed march.
-    fn frame_probed(p: &SceneParams, probe: EyeProbe) -> f64 {
-        let [w, h] = p.camera.resolution;
-        estimate_cost(p, Some(probe)).alone() - (w * h) as f64 * calibration::RECORD
     }
 
     #[test]
