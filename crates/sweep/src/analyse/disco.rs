@@ -21,6 +21,7 @@
 //! validated on synthetic images with planted blobs (tests below) before being applied to
 //! renders, and is not tuned to agree with the thesis.
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::store::DiscoScore;
@@ -56,45 +57,65 @@ impl Gray {
 }
 
 /// Separable Gaussian blur with zero padding (radius 3σ).
+///
+/// Each pass adds one kernel tap at a time to a whole row (`out[x] += k · in[x + offset]`
+/// over the pixels the tap reaches), which vectorises; every pixel still sums its taps in
+/// the same order, from the first tap it reaches, so the result is bit for bit that of the
+/// per-pixel sum (`tests::blur_matches_the_per_pixel_sum`). Rows are blurred in parallel.
+/// At 512² the disco score's 36 blurs (σ up to 72 px) took most of a cell's 1.2–2.9 s of
+/// metrics as a per-pixel sum with a bounds test per tap.
 pub(crate) fn gaussian_blur(img: &Gray, sigma: f32) -> Gray {
-    let radius = (3.0 * sigma).ceil() as isize;
-    let kernel: Vec<f32> = (-radius..=radius)
+    let radius = (3.0 * sigma).ceil() as usize;
+    let kernel: Vec<f32> = (-(radius as isize)..=radius as isize)
         .map(|i| (-(i * i) as f32 / (2.0 * sigma * sigma)).exp())
         .collect();
     let norm: f32 = kernel.iter().sum();
     let kernel: Vec<f32> = kernel.iter().map(|k| k / norm).collect();
-    let (w, h) = (img.width as isize, img.height as isize);
-    let mut tmp = vec![0.0f32; img.data.len()];
-    for y in 0..h {
-        for x in 0..w {
-            let mut acc = 0.0;
+    let (w, h) = (img.width, img.height);
+    let mut out = Gray {
+        width: w,
+        height: h,
+        data: vec![0.0f32; img.data.len()],
+    };
+    if w == 0 || h == 0 {
+        return out;
+    }
+    // Along x: tap `k` reads pixel `x + k − radius` of the same row.
+    let mut along_x = vec![0.0f32; img.data.len()];
+    along_x
+        .par_chunks_mut(w)
+        .zip(img.data.par_chunks(w))
+        .for_each(|(row, source)| {
             for (k, &kv) in kernel.iter().enumerate() {
-                let xx = x + k as isize - radius;
-                if xx >= 0 && xx < w {
-                    acc += kv * img.data[(y * w + xx) as usize];
+                let (lo, hi) = tap_range(k, radius, w);
+                if lo == hi {
+                    continue;
+                }
+                for (o, &v) in row[lo..hi].iter_mut().zip(&source[lo + k - radius..]) {
+                    *o += kv * v;
                 }
             }
-            tmp[(y * w + x) as usize] = acc;
-        }
-    }
-    let mut out = vec![0.0f32; img.data.len()];
-    for y in 0..h {
-        for x in 0..w {
-            let mut acc = 0.0;
-            for (k, &kv) in kernel.iter().enumerate() {
-                let yy = y + k as isize - radius;
-                if yy >= 0 && yy < h {
-                    acc += kv * tmp[(yy * w + x) as usize];
-                }
+        });
+    // Along y: tap `k` adds row `y + k − radius`.
+    out.data.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (k, &kv) in kernel.iter().enumerate() {
+            let Some(yy) = (y + k).checked_sub(radius).filter(|&yy| yy < h) else {
+                continue;
+            };
+            for (o, &v) in row.iter_mut().zip(&along_x[yy * w..(yy + 1) * w]) {
+                *o += kv * v;
             }
-            out[(y * w + x) as usize] = acc;
         }
-    }
-    Gray {
-        width: img.width,
-        height: img.height,
-        data: out,
-    }
+    });
+    out
+}
+
+/// The outputs `lo..hi` of an `n`-pixel line that tap `k` of a kernel of `radius` reaches
+/// (`0 ≤ x + k − radius < n`); empty where it reaches none.
+fn tap_range(k: usize, radius: usize, n: usize) -> (usize, usize) {
+    let lo = radius.saturating_sub(k).min(n);
+    let hi = (n + radius).saturating_sub(k).min(n).max(lo);
+    (lo, hi)
 }
 
 /// The blob scales for an image size.
@@ -126,18 +147,25 @@ fn best_contrast(
     let n = w * h;
     let mut best_contrast = vec![0.0f32; n];
     let mut best_surround = vec![0.0f32; n];
-    let mut cache: Vec<(f32, Gray, Gray)> = Vec::new();
-    let mut blurred = |sigma: f32| -> (Gray, Gray) {
-        if let Some((_, a, b)) = cache.iter().find(|(s, _, _)| (*s - sigma).abs() < 1e-4) {
-            return (a.clone(), b.clone());
+    // Each distinct σ (a centre can be another scale's surround) is blurred once.
+    let mut blurred: Vec<(f32, (Gray, Gray))> = Vec::new();
+    for s in scales(w, h) {
+        for sigma in [s, s * SURROUND_RATIO] {
+            if !blurred.iter().any(|(b, _)| (b - sigma).abs() < 1e-4) {
+                blurred.push((sigma, masked_mean(weighted, mask_img, sigma)));
+            }
         }
-        let r = masked_mean(weighted, mask_img, sigma);
-        cache.push((sigma, r.0.clone(), r.1.clone()));
-        r
+    }
+    let at = |sigma: f32| {
+        let (_, pair) = blurred
+            .iter()
+            .find(|(b, _)| (b - sigma).abs() < 1e-4)
+            .expect("every scale's σ was blurred above");
+        pair
     };
     for s in scales(w, h) {
-        let (num_a, den_a) = blurred(s);
-        let (num_b, den_b) = blurred(s * SURROUND_RATIO);
+        let (num_a, den_a) = at(s);
+        let (num_b, den_b) = at(s * SURROUND_RATIO);
         for i in 0..n {
             if !mask[i] || den_a.data[i] < 1e-3 || den_b.data[i] < 1e-3 {
                 continue;
@@ -411,6 +439,65 @@ mod tests {
         let rel = relative_disco_score(&with, &reference, &mask);
         assert_eq!(rel.blobs, 6, "{rel:?}");
         assert!(rel.energy > 0.005, "{rel:?}");
+    }
+
+    /// The blur as first written: each pixel sums its taps in order, skipping those off
+    /// the image.
+    fn blur_per_pixel(img: &Gray, sigma: f32) -> Gray {
+        let radius = (3.0 * sigma).ceil() as isize;
+        let kernel: Vec<f32> = (-radius..=radius)
+            .map(|i| (-(i * i) as f32 / (2.0 * sigma * sigma)).exp())
+            .collect();
+        let norm: f32 = kernel.iter().sum();
+        let kernel: Vec<f32> = kernel.iter().map(|k| k / norm).collect();
+        let (w, h) = (img.width as isize, img.height as isize);
+        let pass = |source: &[f32], step: (isize, isize)| {
+            let mut out = vec![0.0f32; source.len()];
+            for y in 0..h {
+                for x in 0..w {
+                    let mut acc = 0.0;
+                    for (k, &kv) in kernel.iter().enumerate() {
+                        let (xx, yy) = (
+                            x + step.0 * (k as isize - radius),
+                            y + step.1 * (k as isize - radius),
+                        );
+                        if (0..w).contains(&xx) && (0..h).contains(&yy) {
+                            acc += kv * source[(yy * w + xx) as usize];
+                        }
+                    }
+                    out[(y * w + x) as usize] = acc;
+                }
+            }
+            out
+        };
+        let along_x = pass(&img.data, (1, 0));
+        Gray {
+            width: img.width,
+            height: img.height,
+            data: pass(&along_x, (0, 1)),
+        }
+    }
+
+    #[test]
+    fn blur_matches_the_per_pixel_sum() {
+        // Odd sizes, and kernels wider than the image (σ 72: radius 216).
+        let mut rng = Rng::stream(5, Domain::Misc, 0);
+        for (w, h) in [(37, 23), (1, 9), (64, 64)] {
+            let mut img = Gray::new(w, h);
+            for v in &mut img.data {
+                *v = rng.uniform() * 10.0;
+            }
+            for sigma in [0.5f32, 1.5, 4.24, 12.0, 72.0] {
+                let fast = gaussian_blur(&img, sigma);
+                let slow = blur_per_pixel(&img, sigma);
+                let same = fast
+                    .data
+                    .iter()
+                    .zip(&slow.data)
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
+                assert!(same, "{w}×{h}, σ {sigma}");
+            }
+        }
     }
 
     #[test]
