@@ -42,9 +42,10 @@ mod calibration {
     /// frame in 5.37 → 4.30 CPU-s).
     pub(super) const REFERENCE_SAMPLE: f64 = 0.80e-6;
     /// A cell's wall time beyond its render, per pixel: saving the film and its images,
-    /// the metrics, its share of the report (the runs' wall time less their cells' and
-    /// references' times: 0.2–2.4 s per 512² cell).
-    pub(super) const RECORD: f64 = 4e-6;
+    /// the metrics, its share of the report (the run's wall time less its cells' render,
+    /// photon and tree times: `cost --paper`, 12 cells at 512², 0.63 s a cell on
+    /// 2026-12-04 with the row-wise blur of the disco metric, 2.9 s before it).
+    pub(super) const RECORD: f64 = 2.4e-6;
     /// A progressive iteration's fixed-radius gathers against the k-NN gathers of the same
     /// nused, and its eye march per pixel: each iteration marches every eye ray again, and
     /// thinning spaces out only the gathers (2026-12-04: the foot at 256², stepsize 0.001,
