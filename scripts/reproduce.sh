@@ -3,7 +3,7 @@
 #
 #   scripts/reproduce.sh            # default quality (37 min on 2 cores with the build, measured)
 #   scripts/reproduce.sh --paper    # thesis resolution and the full grids (5 h 10 min on 2 cores
-#                                   # as first committed; about 4.7 h projected with today's
+#                                   # as first committed; about 4.3 h projected with today's
 #                                   # renderer; reports/REPRODUCTION.md)
 #
 # Needs the real volumes on the search path ($VOLPHOT_DATA, ./data or ../shared/data).
