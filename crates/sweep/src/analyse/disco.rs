@@ -148,25 +148,10 @@ fn best_contrast(
     let n = w * h;
     let mut best_contrast = vec![0.0f32; n];
     let mut best_surround = vec![0.0f32; n];
-    // Each distinct σ (a centre can be another scale's surround) is blurred once.
-    let mut blurred: Vec<(f32, (Gray, Gray))> = Vec::new();
+    // The scales step by √2 and the surround is 3×, so no σ is needed twice.
     for s in scales(w, h) {
-        for sigma in [s, s * SURROUND_RATIO] {
-            if !blurred.iter().any(|(b, _)| (b - sigma).abs() < 1e-4) {
-                blurred.push((sigma, masked_mean(weighted, mask_img, sigma)));
-            }
-        }
-    }
-    let at = |sigma: f32| {
-        let (_, pair) = blurred
-            .iter()
-            .find(|(b, _)| (b - sigma).abs() < 1e-4)
-            .expect("every scale's σ was blurred above");
-        pair
-    };
-    for s in scales(w, h) {
-        let (num_a, den_a) = at(s);
-        let (num_b, den_b) = at(s * SURROUND_RATIO);
+        let (num_a, den_a) = masked_mean(weighted, mask_img, s);
+        let (num_b, den_b) = masked_mean(weighted, mask_img, s * SURROUND_RATIO);
         for i in 0..n {
             if !mask[i] || den_a.data[i] < 1e-3 || den_b.data[i] < 1e-3 {
                 continue;
