@@ -2,9 +2,9 @@
 # Regenerates every committed study under reports/ (see reports/REPRODUCTION.md):
 #
 #   scripts/reproduce.sh            # default quality (37 min on 2 cores with the build, measured)
-#   scripts/reproduce.sh --paper    # thesis resolution and the full grids (5 h 10 min on 2 cores
-#                                   # as first committed; about 4.3 h projected with today's
-#                                   # renderer; reports/REPRODUCTION.md)
+#   scripts/reproduce.sh --paper    # thesis resolution and the full grids (4 h 26 min on 2 cores
+#                                   # with today's renderer, measured; 5 h 10 min as first
+#                                   # committed; reports/REPRODUCTION.md)
 #
 # Needs the real volumes on the search path ($VOLPHOT_DATA, ./data or ../shared/data).
 # Finished cells are reused; delete a report folder to render it again.
