@@ -17,6 +17,13 @@ pub struct MajorantGrid {
     /// bricks, so a walk that only asks "empty?" stays in cache (the `f32`s are 1 MiB).
     occupied: Vec<u64>,
     bounds: Aabb,
+    /// The grid's extent in bricks, `n / brick_size` per axis: brick coordinates are
+    /// `(p − bounds.min) / extent · bricks`, so brick `b` spans `[b, b + 1)`, the voxels
+    /// `b · brick_size … (b + 1) · brick_size` that its maximum covers (a last, partial
+    /// brick ends at the grid's edge). Scaling by `res` instead stretched each brick over
+    /// `n / res` voxels, past what its maximum covered, wherever `brick_size` does not
+    /// divide `n` (the thesis's head has 109 slices).
+    bricks: Vec3,
     brick_size: usize,
 }
 
@@ -57,6 +64,7 @@ impl MajorantGrid {
             sigma,
             occupied,
             bounds: density.bounds(),
+            bricks: Vec3::from(dims.map(|n| n as f32 / brick_size as f32)),
             brick_size,
         }
     }
@@ -81,8 +89,8 @@ impl MajorantGrid {
         if !self.bounds.contains(p) {
             return 0.0;
         }
-        let c = (p - self.bounds.min) / self.bounds.extent();
-        let i = |a: f32, n: usize| ((a * n as f32) as usize).min(n - 1);
+        let c = (p - self.bounds.min) / self.bounds.extent() * self.bricks;
+        let i = |a: f32, n: usize| (a as usize).min(n - 1);
         let (x, y, z) = (
             i(c.x, self.res[0]),
             i(c.y, self.res[1]),
@@ -132,9 +140,8 @@ struct BrickWalk {
 impl BrickWalk {
     fn new(grid: &MajorantGrid, ray: &Ray, t_min: f32, t_max: f32) -> Self {
         let extent = grid.bounds.extent();
-        let res = Vec3::new(grid.res[0] as f32, grid.res[1] as f32, grid.res[2] as f32);
-        let p = (ray.at(t_min) - grid.bounds.min) / extent * res;
-        let d = ray.direction / extent * res;
+        let p = (ray.at(t_min) - grid.bounds.min) / extent * grid.bricks;
+        let d = ray.direction / extent * grid.bricks;
         let mut voxel = [0i32; 3];
         let mut step = [0i32; 3];
         let mut limit = [0i32; 3];
@@ -344,6 +351,39 @@ mod tests {
                         let expected = if i == axis { n[i] + 10.0 } else { n[i] };
                         assert_eq!(moved[i], expected, "{n:?}");
                     }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn every_brick_bounds_the_density_where_the_walk_places_it() {
+        use crate::math::Aabb;
+        use crate::volume::Grid;
+        use glam::Vec3;
+        // Dimensions that bricks of 4 divide and do not (the thesis's head has 109
+        // slices, the Stanford CT head 113): one non-zero voxel at a time, and every
+        // point where its trilinear footprint is positive must lie in a brick whose
+        // majorant bounds it.
+        for dims in [[4usize, 4, 9], [5, 4, 4], [4, 6, 13], [8, 8, 8]] {
+            let n = dims[0] * dims[1] * dims[2];
+            let bounds = Aabb::new(Vec3::ZERO, Vec3::ONE);
+            for voxel in 0..n {
+                let mut values = vec![0.0f32; n];
+                values[voxel] = 1.0;
+                let grid = Grid::new(dims, values, bounds);
+                let majorants = super::MajorantGrid::build(&grid, 1.0, 4);
+                let steps = 4 * dims.iter().max().unwrap();
+                for i in 0..steps * steps * steps {
+                    let (x, y, z) = (i % steps, i / steps % steps, i / steps / steps);
+                    let p = Vec3::new(x as f32, y as f32, z as f32) / steps as f32
+                        + Vec3::splat(0.5 / steps as f32);
+                    let density = grid.trilinear_clamped(p);
+                    assert!(
+                        majorants.at(p) >= density,
+                        "{dims:?} voxel {voxel}: density {density} > majorant {} at {p}",
+                        majorants.at(p)
+                    );
                 }
             }
         }
