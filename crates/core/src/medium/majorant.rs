@@ -323,8 +323,12 @@ impl Iterator for OccupiedRuns<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::CrossingAxis;
+    use glam::Vec3;
+
+    use super::{CrossingAxis, MajorantGrid};
+    use crate::math::Aabb;
     use crate::medium::test_media::{phantom_medium as medium, random_ray};
+    use crate::volume::Grid;
 
     #[test]
     fn the_crossing_mask_picks_the_axis_the_branches_pick() {
@@ -358,9 +362,6 @@ mod tests {
 
     #[test]
     fn every_brick_bounds_the_density_where_the_walk_places_it() {
-        use crate::math::Aabb;
-        use crate::volume::Grid;
-        use glam::Vec3;
         // Dimensions that bricks of 4 divide and do not (the thesis's head has 109
         // slices, the Stanford CT head 113): one non-zero voxel at a time, and every
         // point where its trilinear footprint is positive must lie in a brick whose
@@ -372,7 +373,7 @@ mod tests {
                 let mut values = vec![0.0f32; n];
                 values[voxel] = 1.0;
                 let grid = Grid::new(dims, values, bounds);
-                let majorants = super::MajorantGrid::build(&grid, 1.0, 4);
+                let majorants = MajorantGrid::build(&grid, 1.0, 4);
                 let steps = 4 * dims.iter().max().unwrap();
                 for i in 0..steps * steps * steps {
                     let (x, y, z) = (i % steps, i / steps % steps, i / steps / steps);
