@@ -17,12 +17,14 @@ pub struct Control<'a> {
     progress: &'a (dyn Fn(u64) + Sync),
     deadline: Option<(Instant, Duration)>,
     reference: Option<&'a [Vec3]>,
+    error_probes: bool,
 }
 
 impl std::fmt::Debug for Control<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Control")
             .field("time_limit", &self.deadline.map(|(_, d)| d))
+            .field("error_probes", &self.error_probes)
             .finish()
     }
 }
@@ -40,6 +42,7 @@ impl<'a> Control<'a> {
             progress: &no_progress,
             deadline: None,
             reference: None,
+            error_probes: true,
         }
     }
 
@@ -49,6 +52,7 @@ impl<'a> Control<'a> {
             progress,
             deadline: None,
             reference: None,
+            error_probes: true,
         }
     }
 
@@ -63,6 +67,20 @@ impl<'a> Control<'a> {
     /// The reference image, if one was given.
     pub fn reference(&self) -> Option<&'a [Vec3]> {
         self.reference
+    }
+
+    /// Skips the pass that measures what thinning and the caches err by (the probe pixels
+    /// traced again with every sample evaluated, `RenderRecord::cache_error`): a fixed cost
+    /// of up to 32 × 32 × 2 eye rays that a pilot render timing the per-pixel cost must
+    /// leave out (`sweep plan`). The image is the same; the record has no error bounds.
+    pub fn without_error_probes(mut self) -> Self {
+        self.error_probes = false;
+        self
+    }
+
+    /// Whether the render measures its thinning and cache errors (the default).
+    pub(crate) fn error_probes(&self) -> bool {
+        self.error_probes
     }
 
     /// Stops the render with [`Error::TimeLimit`] once `limit` has passed from now.
@@ -82,6 +100,7 @@ impl<'a> Control<'a> {
             progress,
             deadline: self.deadline,
             reference: self.reference,
+            error_probes: self.error_probes,
         }
     }
 

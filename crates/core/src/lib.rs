@@ -76,8 +76,8 @@ pub use film::{
 pub use integrator::{
     CACHE_TAU_MAX, CacheError, ErrorBound, EyeProbe, MAX_VERTICES, MarchOutput, MarchStats,
     MsVariant, ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, StopReason,
-    ThinningError, next_radius, probe_eye_rays, progress_rows, render_march, render_march_beams,
-    render_progressive, render_reference,
+    ThinningError, error_probe_pixels, next_radius, probe_eye_rays, progress_rows, render_march,
+    render_march_beams, render_progressive, render_reference,
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
 pub use medium::{

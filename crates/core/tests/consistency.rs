@@ -184,6 +184,11 @@ fn every_iteration_carries_the_same_power() {
         .map(|p| (p.power.x + p.power.y + p.power.z) as f64 / 3.0)
         .sum();
     assert_eq!(stats.stored_power.len(), 6);
+    // Each iteration's march timed on its own (`sweep plan` scales the first and a later
+    // one), adding up to the total.
+    assert_eq!(stats.march_seconds_each.len(), 6);
+    let sum: f64 = stats.march_seconds_each.iter().sum();
+    assert!((sum - stats.march_seconds).abs() <= 1e-9 * stats.march_seconds.max(1.0));
     for (i, power) in stats.stored_power.iter().enumerate() {
         assert!(
             (power / expected - 1.0).abs() < 0.03,

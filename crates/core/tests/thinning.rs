@@ -338,3 +338,41 @@ fn progressive_and_beam_renders_measure_thinning_on_their_first_march() {
         );
     }
 }
+
+#[test]
+fn a_render_without_error_probes_is_the_same_image_without_the_bounds() {
+    let base = common::scene(SCENE);
+    let map = build_photon_map(&base, &Control::none()).unwrap();
+    let scene = base
+        .with_integrator(IntegratorParams {
+            thin_below: 0.5,
+            ..base.integrator().clone()
+        })
+        .unwrap();
+    let measured = render_march(&scene, &[&map], &[], &Control::none()).unwrap();
+    let piloted = render_march(
+        &scene,
+        &[&map],
+        &[],
+        &Control::none().without_error_probes(),
+    )
+    .unwrap();
+    assert!(
+        measured.cache_errors[0].is_some(),
+        "thinning measures its error"
+    );
+    assert!(
+        piloted.cache_errors[0].is_none(),
+        "the probe pass was skipped"
+    );
+    for layer in [Layer::Single, Layer::Multiple] {
+        let bits = |o: &MarchOutput| -> Vec<u32> {
+            o.films[0]
+                .layer(layer)
+                .iter()
+                .flat_map(|v| v.to_array().map(f32::to_bits))
+                .collect()
+        };
+        assert_eq!(bits(&measured), bits(&piloted), "{layer:?}");
+    }
+}

@@ -28,6 +28,19 @@ const PROBE_RAYS_PER_AXIS: u32 = 32;
 /// At most this many probe points (every k-th sample beyond).
 const MAX_PROBES: usize = 8192;
 
+/// The pixels whose eye rays a `width` × `height` render traces again to measure what its
+/// thinning and caches err by (a regular grid of at most 32 × 32): thinning traces each
+/// twice more, once as rendered and once with every sample evaluated. A fixed cost of the
+/// render, whatever its size.
+///
+/// ```
+/// assert_eq!(volphot::error_probe_pixels(512, 512), 1024);
+/// assert_eq!(volphot::error_probe_pixels(16, 48), 16 * 32);
+/// ```
+pub fn error_probe_pixels(width: u32, height: u32) -> u32 {
+    PROBE_RAYS_PER_AXIS.min(width) * PROBE_RAYS_PER_AXIS.min(height)
+}
+
 /// The error of one cached quantity at the probes.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ErrorBound {
@@ -171,6 +184,7 @@ impl Marcher<'_> {
     fn probe_pixels(camera: &Camera) -> impl Iterator<Item = (u32, u32)> {
         let (w, h) = (camera.width(), camera.height());
         let (nx, ny) = (PROBE_RAYS_PER_AXIS.min(w), PROBE_RAYS_PER_AXIS.min(h));
+        debug_assert_eq!(nx * ny, error_probe_pixels(w, h));
         (0..ny).flat_map(move |j| {
             (0..nx).map(move |i| ((2 * i + 1) * w / (2 * nx), (2 * j + 1) * h / (2 * ny)))
         })

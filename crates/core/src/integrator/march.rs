@@ -228,7 +228,7 @@ pub fn render_march(
     variants: &[MsVariant],
     control: &Control<'_>,
 ) -> Result<MarchOutput> {
-    march_measured(scene, maps, variants, control, Measure::Errors)
+    march_measured(scene, maps, variants, control, Measure::asked_by(control))
 }
 
 /// Whether a pass measures what its caches and thinning err by ([`super::cache_error`]).
@@ -239,6 +239,17 @@ pub fn render_march(
 pub(super) enum Measure {
     Errors,
     Skip,
+}
+
+impl Measure {
+    /// What `control` asks for ([`Control::without_error_probes`] skips the measurement).
+    pub(super) fn asked_by(control: &Control<'_>) -> Self {
+        if control.error_probes() {
+            Measure::Errors
+        } else {
+            Measure::Skip
+        }
+    }
 }
 
 /// [`render_march`], measuring the errors or not.
@@ -278,7 +289,7 @@ pub fn render_march_beams(
     beams: &BeamMap<'_>,
     control: &Control<'_>,
 ) -> Result<MarchOutput> {
-    beams_measured(scene, beams, control, Measure::Errors)
+    beams_measured(scene, beams, control, Measure::asked_by(control))
 }
 
 /// [`render_march_beams`], measuring the errors or not.

@@ -39,7 +39,7 @@ mod reference;
 mod thinning;
 
 pub use cache::CACHE_TAU_MAX;
-pub use cache_error::{CacheError, ErrorBound, ThinningError};
+pub use cache_error::{CacheError, ErrorBound, ThinningError, error_probe_pixels};
 pub use gather::MsVariant;
 pub use march::{MarchOutput, MarchStats, render_march, render_march_beams};
 pub use probe::{EyeProbe, probe_eye_rays};

@@ -57,6 +57,10 @@ pub struct ProgressiveStats {
     pub tree_seconds: f64,
     /// Seconds spent marching, all iterations.
     pub march_seconds: f64,
+    /// Seconds spent marching, per iteration: the first renders every layer, the later
+    /// ones the multiple layer alone.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub march_seconds_each: Vec<f64>,
     /// RMSE of the image after each iteration against the reference the render was given
     /// (empty without one).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -164,13 +168,20 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
         let iteration_control = control.with_progress(&progress);
         // The first march renders every layer, so it is the one thinning is measured on.
         let measure = if i == 1 {
-            Measure::Errors
+            Measure::asked_by(control)
         } else {
             Measure::Skip
         };
-        let (iteration_film, march, used_radius, cache_error) =
-            march_iteration(scene, &s, i, &map, radius, &iteration_control, measure)?;
+        let IterationPass {
+            film: iteration_film,
+            march,
+            radius: used_radius,
+            cache_error,
+            build_seconds,
+        } = march_iteration(scene, &s, i, &map, radius, &iteration_control, measure)?;
+        stats.tree_seconds += build_seconds;
         stats.march_seconds += march.seconds;
+        stats.march_seconds_each.push(march.seconds);
         stats.radii.push(used_radius);
         stats.stored.push(map.stats().stored);
         stats.stored_power.push(stored_power(&map));
@@ -261,9 +272,21 @@ fn trace_iteration(
     Ok(PhotonMap::new(photons, stats))
 }
 
-/// One iteration's march: everything in the first, the multiple term alone afterwards;
-/// returns the film, the counters, the (mean) gather radius used and, when `measure` asks,
-/// what thinning erred by.
+/// What one iteration's march produced.
+struct IterationPass {
+    film: Film,
+    march: MarchStats,
+    /// The (mean) gather radius used.
+    radius: f32,
+    /// What thinning erred by, when the pass measured it.
+    cache_error: Option<CacheError>,
+    /// Seconds spent building the beams' hierarchy (0 for point gathers, whose kd-tree is
+    /// the photon map's).
+    build_seconds: f64,
+}
+
+/// One iteration's march: everything in the first, the multiple term alone afterwards
+/// (measuring what thinning errs by when `measure` asks).
 fn march_iteration(
     scene: &Scene,
     s: &IntegratorParams,
@@ -272,7 +295,7 @@ fn march_iteration(
     radius: f32,
     control: &Control<'_>,
     measure: Measure,
-) -> Result<(Film, MarchStats, f32, Option<CacheError>)> {
+) -> Result<IterationPass> {
     let mut settings = s.clone();
     if i > 1 {
         settings.single = false;
@@ -284,15 +307,15 @@ fn march_iteration(
         let beams = BeamMap::new(map, beam_radius(s, radius), scene.medium(), beam_masked(s));
         let build_seconds = start.elapsed().as_secs_f64();
         let mut out = beams_measured(&scene, &beams, control, measure)?;
-        // The hierarchy is built for this march alone: its time is the march's.
-        out.stats.seconds += build_seconds;
-        let error = out.cache_errors.swap_remove(0);
-        return Ok((
-            out.films.swap_remove(0),
-            out.stats,
-            beams.mean_radius(),
-            error,
-        ));
+        // The hierarchy is a search structure built once per map, like a kd-tree: its
+        // time is the tree's, not the march's (which scales with the pixels).
+        return Ok(IterationPass {
+            film: out.films.swap_remove(0),
+            march: out.stats,
+            radius: beams.mean_radius(),
+            cache_error: out.cache_errors.swap_remove(0),
+            build_seconds,
+        });
     }
     let variant = MsVariant {
         map: 0,
@@ -301,8 +324,13 @@ fn march_iteration(
         estimate: s.estimate,
     };
     let mut out = march_measured(&scene, &[map], &[variant], control, measure)?;
-    let error = out.cache_errors.swap_remove(0);
-    Ok((out.films.swap_remove(0), out.stats, radius, error))
+    Ok(IterationPass {
+        film: out.films.swap_remove(0),
+        march: out.stats,
+        radius,
+        cache_error: out.cache_errors.swap_remove(0),
+        build_seconds: 0.0,
+    })
 }
 
 /// The median over (up to 1000 of) the map's photons of the distance to their `nused`-th

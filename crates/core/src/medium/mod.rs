@@ -395,6 +395,14 @@ impl Medium {
         &self.majorants
     }
 
+    /// Builds now what the first shadow ray would otherwise build (the empty-cell bits and
+    /// the compact density the exact optical depth reads), so that a render timed after
+    /// this call measures its per-ray cost alone (`sweep plan`'s pilot renders).
+    pub fn prepare(&self) {
+        self.empty_cells();
+        self.compact_density();
+    }
+
     /// The density grid's empty cells (built on first use).
     fn empty_cells(&self) -> &empty_cells::EmptyCells {
         self.empty_cells
