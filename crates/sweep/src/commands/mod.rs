@@ -5,6 +5,7 @@ mod datasets;
 mod export;
 mod import;
 mod peer;
+mod pilot;
 mod plan;
 mod render;
 mod report;

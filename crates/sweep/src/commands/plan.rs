@@ -1,4 +1,6 @@
-//! `sweep plan`: the cells of an experiment and a rough cost estimate.
+//! `sweep plan`: the cells of an experiment and a cost estimate, measured by pilot renders
+//! on this machine ([`super::pilot`]) or, with `--no-pilot` or where a scene cannot be
+//! loaded, from a model calibrated on one frame.
 
 use std::collections::{HashMap, HashSet};
 use std::process::ExitCode;
@@ -8,6 +10,7 @@ use volphot::{
     EyeProbe, Method, MsEstimator, SceneParams, SearchPath, ShadowEstimator, probe_eye_rays,
 };
 
+use super::pilot::{self, Pilots};
 use crate::cli::PlanArgs;
 use crate::plan::{CellSpec, Experiment, ReferenceMethod, reference_key, reference_params};
 use crate::render::Caches;
@@ -214,7 +217,12 @@ struct ReferenceEstimate {
 }
 
 impl ReferenceEstimate {
-    fn of(exp: &Experiment, cells: &[CellSpec], pool: Option<&ReferencePool>) -> Result<Self> {
+    fn of(
+        exp: &Experiment,
+        cells: &[CellSpec],
+        pool: Option<&ReferencePool>,
+        costing: &mut Costing,
+    ) -> Result<Self> {
         let mut estimate = ReferenceEstimate::default();
         let Some(spec) = &exp.reference else {
             return Ok(estimate);
@@ -234,7 +242,10 @@ impl ReferenceEstimate {
             estimate.pooled += usize::from(held == spec.spp);
             estimate.partly_pooled += usize::from(held > 0 && held < spec.spp);
             let left = 1.0 - f64::from(held) / f64::from(spec.spp.max(1));
-            estimate.seconds += estimate_cost(&p, None).alone() * left;
+            if left <= 0.0 {
+                continue;
+            }
+            estimate.seconds += costing.reference(&p, c) * left;
         }
         estimate.count = seen.len();
         Ok(estimate)
@@ -254,6 +265,108 @@ impl ReferenceEstimate {
     }
 }
 
+/// The cells in the march groups a run renders together, in plan order.
+fn march_groups<'a>(exp: &Experiment, cells: &'a [CellSpec]) -> Vec<Vec<&'a CellSpec>> {
+    crate::render::group_by_march(cells.iter().collect(), exp.share, |c| c)
+}
+
+/// How the plan's costs were found.
+enum Costing {
+    /// Pilot renders on this machine, with the model where a scene could not be loaded.
+    Pilot(Pilots),
+    /// The calibrated model alone.
+    Model,
+}
+
+impl Costing {
+    /// The seconds of the reference `params` of `cell` rendered whole: a pilot's, or the
+    /// model's when there is none (or it failed, said on stderr).
+    fn reference(&mut self, params: &SceneParams, cell: &CellSpec) -> f64 {
+        let piloted = match self {
+            Costing::Pilot(pilots) if params.integrator.method == Method::Reference => {
+                pilots.reference(params, &cell.base_dir)
+            }
+            Costing::Pilot(pilots) => {
+                let spec = CellSpec {
+                    params: params.clone(),
+                    ..cell.clone()
+                };
+                pilots.group(&[&spec], 0.0).map(|costs| costs[0])
+            }
+            Costing::Model => return estimate_cost(params, None).alone(),
+        };
+        piloted.unwrap_or_else(|e| {
+            eprintln!(
+                "note: no pilot for the reference of cell {} ({e:#}): the model costs it",
+                cell.index
+            );
+            estimate_cost(params, None).alone()
+        })
+    }
+}
+
+/// Each cell's estimated seconds (its share of a shared march), in plan order, and the
+/// groups the model had to cost (their scene could not be loaded for a pilot).
+fn cell_estimates(
+    exp: &Experiment,
+    cells: &[CellSpec],
+    costing: &mut Costing,
+    probes: &mut Probes,
+) -> (Vec<f64>, usize) {
+    let groups = march_groups(exp, cells);
+    let multi = crate::progress::multi(false);
+    let bar = match costing {
+        Costing::Pilot(_) => Some(crate::progress::bar(
+            &multi,
+            groups.len() as u64,
+            "pilot",
+            "groups",
+        )),
+        Costing::Model => None,
+    };
+    let mut estimates = vec![0.0; cells.len()];
+    let mut modelled = 0;
+    let mut first_failure = None;
+    for group in &groups {
+        let piloted = match costing {
+            Costing::Pilot(pilots) => match pilots.group(group, calibration::RECORD) {
+                Ok(costs) => Some(costs),
+                Err(e) => {
+                    first_failure.get_or_insert_with(|| format!("cell {}: {e:#}", group[0].index));
+                    None
+                }
+            },
+            Costing::Model => None,
+        };
+        let costs = piloted.unwrap_or_else(|| {
+            modelled += usize::from(matches!(costing, Costing::Pilot(_)));
+            // The model: the group pays its longest march once, each cell its own part.
+            let costs: Vec<CellCost> = group
+                .iter()
+                .map(|c| estimate_cost(&c.params, probes.probe(c)))
+                .collect();
+            let march = costs.iter().map(|c| c.march).fold(0.0, f64::max) / group.len() as f64;
+            costs.iter().map(|c| c.own + march).collect()
+        });
+        for (c, cost) in group.iter().zip(costs) {
+            estimates[c.index] = cost;
+        }
+        if let Some(bar) = &bar {
+            bar.inc(1);
+        }
+    }
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    if let Some(why) = first_failure {
+        eprintln!(
+            "note: no pilot render for {modelled} of {} march group(s), costed by the model instead (the first: {why})",
+            groups.len()
+        );
+    }
+    (estimates, modelled)
+}
+
 /// Prints each cell's estimated cost and the total: cells of one march group pay their
 /// shared march once, and each distinct reference is counted once.
 fn print_estimates(
@@ -262,45 +375,51 @@ fn print_estimates(
     hashes: &[String],
     plan_seconds: f64,
     pool: Option<&ReferencePool>,
+    mut costing: Costing,
 ) -> Result<()> {
-    println!("{:>5}  {:<16}  {:>9}  cell", "index", "hash", "est. [s]");
-    let mut alone = 0.0;
-    let mut own = 0.0;
-    // The most any cell of a march group spends on the march it shares.
-    let mut marches: HashMap<String, f64> = HashMap::new();
     let mut probes = Probes::default();
-    for (c, hash) in cells.iter().zip(hashes) {
-        let cost = estimate_cost(&c.params, probes.probe(c));
-        let key = if exp.share {
-            volphot::march_key(&c.params)
-        } else {
-            hash.clone()
-        };
-        let march = marches.entry(key).or_default();
-        *march = march.max(cost.march);
-        alone += cost.alone();
-        own += cost.own;
-        println!(
-            "{:>5}  {:<16}  {:>9.1}  {}",
-            c.index,
-            hash,
-            cost.alone(),
-            c.label()
-        );
+    let (estimates, modelled) = cell_estimates(exp, cells, &mut costing, &mut probes);
+    println!("{:>5}  {:<16}  {:>9}  cell", "index", "hash", "est. [s]");
+    for ((c, hash), est) in cells.iter().zip(hashes).zip(&estimates) {
+        println!("{:>5}  {:<16}  {:>9.1}  {}", c.index, hash, est, c.label());
     }
-    let references = ReferenceEstimate::of(exp, cells, pool)?;
-    let shared = own + marches.values().sum::<f64>();
+    let references = ReferenceEstimate::of(exp, cells, pool, &mut costing)?;
+    let groups = march_groups(exp, cells).len();
+    let (setup, how) = match &costing {
+        Costing::Pilot(p) => (
+            p.setup_seconds(),
+            format!(
+                "Measured: each march group and reference rendered at {side} pixels a side on this machine ({renders} pilot render(s), {secs:.1} s{model}), scaled to its size; {setup:.1} s of loading the volumes included",
+                side = pilot::PILOT_SIDE,
+                renders = p.renders,
+                secs = p.seconds,
+                model = if modelled > 0 {
+                    format!(
+                        "; {modelled} group(s) whose scene could not be loaded from the model, calibrated on the foot at σt 80 and scaled by {}",
+                        probes.summary()
+                    )
+                } else {
+                    String::new()
+                },
+                setup = p.setup_seconds(),
+            ),
+        ),
+        Costing::Model => (
+            0.0,
+            format!(
+                "Rough: calibrated on the foot at σt 80 and scaled by {} (pilot renders measure it: drop --no-pilot)",
+                probes.summary()
+            ),
+        ),
+    };
+    let cells_total: f64 = estimates.iter().sum::<f64>() + setup;
+    let total = cells_total + references.seconds;
     println!(
-        "estimated {:.0} s of rendering on 2 cores ({:.1} h): {:.0} s for the cells in {} march group(s) that share eye rays ({:.0} s if each were rendered alone) and {:.0} s for {} reference(s){}. Rough: calibrated on the foot at σt 80 and scaled by {}. Planned in {:.3} s.",
-        shared + references.seconds,
-        (shared + references.seconds) / 3600.0,
-        shared,
-        marches.len(),
-        alone,
+        "estimated {total:.0} s of rendering ({:.1} h): {cells_total:.0} s for the cells in {groups} march group(s) and {:.0} s for {} reference(s){}. {how}. Planned in {:.3} s.",
+        total / 3600.0,
         references.seconds,
         references.count,
         references.pool_note(pool),
-        probes.summary(),
         plan_seconds + probes.seconds
     );
     Ok(())
@@ -335,7 +454,12 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
         cells.len()
     );
     let pool = args.reference_pool.clone().map(ReferencePool::new);
-    print_estimates(&exp, &cells, &hashes, plan_seconds, pool.as_ref())?;
+    let costing = if args.no_pilot {
+        Costing::Model
+    } else {
+        Costing::Pilot(Pilots::default())
+    };
+    print_estimates(&exp, &cells, &hashes, plan_seconds, pool.as_ref(), costing)?;
     if cells.len() > exp.max_cells {
         println!(
             "note: {} cells exceed the experiment's max_cells = {}; `sweep run` will ask for --yes",

@@ -360,15 +360,26 @@ fn render_references<'a>(
 /// Groups jobs that share a march (photon-mapping cells with equal [`volphot::march_key`]
 /// when the experiment shares work).
 fn march_groups(jobs: Vec<Job>, share: bool) -> Vec<Vec<Job>> {
-    let mut groups: Vec<(String, Vec<Job>)> = Vec::new();
-    for job in jobs {
-        let key = volphot::march_key(&job.spec.params);
-        let shareable = share && job.spec.params.integrator.method == Method::Photon;
+    group_by_march(jobs, share, |j| &j.spec)
+}
+
+/// Groups `items` whose cells share a march, in the order of their first member: the
+/// groups a run renders with one `render_shared` call each (`sweep plan` costs the same).
+pub(crate) fn group_by_march<T>(
+    items: Vec<T>,
+    share: bool,
+    spec: impl Fn(&T) -> &CellSpec,
+) -> Vec<Vec<T>> {
+    let mut groups: Vec<(String, Vec<T>)> = Vec::new();
+    for item in items {
+        let params = &spec(&item).params;
+        let key = volphot::march_key(params);
+        let shareable = share && params.integrator.method == Method::Photon;
         match groups.iter_mut().find(|(k, g)| {
-            shareable && g[0].spec.params.integrator.method == Method::Photon && *k == key
+            shareable && spec(&g[0]).params.integrator.method == Method::Photon && *k == key
         }) {
-            Some((_, g)) => g.push(job),
-            None => groups.push((key, vec![job])),
+            Some((_, g)) => g.push(item),
+            None => groups.push((key, vec![item])),
         }
     }
     groups.into_iter().map(|(_, g)| g).collect()
