@@ -16,9 +16,11 @@
 //! Measured against the committed `--paper` studies (`reports/REPRODUCTION.md`, "How far to
 //! trust the estimate"): two studies rendered from scratch right after their plans took
 //! 0.86× and 0.87× of the estimate, and the committed point-estimate studies 0.90–1.12×
-//! (per study, render and photon maps). Progressive renders
-//! are over-estimated, by 1.2× over 16 iterations and 1.5× over 64: every later pass is
-//! charged at the second iteration's, whose gather radius is the largest of them.
+//! (per study, render and photon maps), except two rendered on an afternoon this machine
+//! ran 1.4× slower (1.5×): a pilot measures the machine as it is when it plans.
+//! Progressive renders are over-estimated, by 1.2× over 16 iterations and 1.5× over 64:
+//! every later pass is charged at the second iteration's, whose gather radius is the
+//! largest of them.
 
 use std::collections::HashMap;
 use std::path::Path;
