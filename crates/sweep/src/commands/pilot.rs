@@ -8,8 +8,8 @@
 //! (`reports/REPRODUCTION.md`). A pilot measures the group's own per-pixel cost instead:
 //! the same `render_shared` call a run makes, on a `PILOT_SIDE`-pixel image of the same
 //! view, with the photon maps at their full size (their cost does not depend on the
-//! image). What does not scale with the pixels is timed apart and added once: loading and
-//! preparing the medium, tracing and indexing each photon map, and the pass that measures
+//! image). What does not scale with the pixels is timed apart and added unscaled: loading
+//! and preparing the media, tracing and indexing each photon map, and the pass that measures
 //! thinning's error on up to 32 × 32 probe pixels (left out of the pilot, and charged at
 //! the pilot's per-pixel cost: [`error_probe_rays`] eye rays per probe pixel).
 //!
@@ -22,7 +22,6 @@
 //! every later pass is charged at the second iteration's, whose gather radius is the
 //! largest of them.
 
-use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
 
@@ -125,8 +124,9 @@ fn iterated_seconds(
 #[derive(Default)]
 pub(crate) struct Pilots {
     caches: Caches,
-    /// Seconds to load and prepare each distinct medium (paid once by a run).
-    setup: HashMap<String, f64>,
+    /// Seconds spent getting the pilots' scenes: each medium loaded and prepared once,
+    /// then taken from the cache, as a run gets its groups' scenes.
+    pub(crate) setup_seconds: f64,
     /// Wall-clock seconds the pilots took.
     pub(crate) seconds: f64,
     /// Pilot renders made.
@@ -134,25 +134,14 @@ pub(crate) struct Pilots {
 }
 
 impl Pilots {
-    /// The scene of `params`, loading and preparing its medium on first use (timed once).
+    /// The scene of `params`, its medium prepared (loaded and prepared on first use; a
+    /// medium already prepared returns at once).
     fn scene(&mut self, params: &SceneParams, base: &Path) -> Result<volphot::Scene> {
-        let key = format!(
-            "{}|{}",
-            base.display(),
-            serde_json::to_string(&(&params.volume, &params.transfer, &params.sigma))?
-        );
         let start = Instant::now();
         let scene = self.caches.scene(params, base, &SearchPath::from_env())?;
-        if let std::collections::hash_map::Entry::Vacant(slot) = self.setup.entry(key) {
-            scene.medium().prepare();
-            slot.insert(start.elapsed().as_secs_f64());
-        }
+        scene.medium().prepare();
+        self.setup_seconds += start.elapsed().as_secs_f64();
         Ok(scene)
-    }
-
-    /// Seconds to load and prepare the media the pilots met, each once.
-    pub(crate) fn setup_seconds(&self) -> f64 {
-        self.setup.values().sum()
     }
 
     /// The wall-clock seconds each cell of a march group costs at its own size (its share

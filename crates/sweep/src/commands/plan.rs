@@ -308,12 +308,11 @@ impl Costing {
 /// Each cell's estimated seconds (its share of a shared march), in plan order, and the
 /// groups the model had to cost (their scene could not be loaded for a pilot).
 fn cell_estimates(
-    exp: &Experiment,
-    cells: &[CellSpec],
+    groups: &[Vec<&CellSpec>],
+    cells: usize,
     costing: &mut Costing,
     probes: &mut Probes,
 ) -> (Vec<f64>, usize) {
-    let groups = march_groups(exp, cells);
     let multi = crate::progress::multi(false);
     let bar = match costing {
         Costing::Pilot(_) => Some(crate::progress::bar(
@@ -324,10 +323,10 @@ fn cell_estimates(
         )),
         Costing::Model => None,
     };
-    let mut estimates = vec![0.0; cells.len()];
+    let mut estimates = vec![0.0; cells];
     let mut modelled = 0;
     let mut first_failure = None;
-    for group in &groups {
+    for group in groups {
         let piloted = match costing {
             Costing::Pilot(pilots) => match pilots.group(group, calibration::RECORD) {
                 Ok(costs) => Some(costs),
@@ -378,16 +377,16 @@ fn print_estimates(
     mut costing: Costing,
 ) -> Result<()> {
     let mut probes = Probes::default();
-    let (estimates, modelled) = cell_estimates(exp, cells, &mut costing, &mut probes);
+    let groups = march_groups(exp, cells);
+    let (estimates, modelled) = cell_estimates(&groups, cells.len(), &mut costing, &mut probes);
     println!("{:>5}  {:<16}  {:>9}  cell", "index", "hash", "est. [s]");
     for ((c, hash), est) in cells.iter().zip(hashes).zip(&estimates) {
         println!("{:>5}  {:<16}  {:>9.1}  {}", c.index, hash, est, c.label());
     }
     let references = ReferenceEstimate::of(exp, cells, pool, &mut costing)?;
-    let groups = march_groups(exp, cells).len();
     let (setup, how) = match &costing {
         Costing::Pilot(p) => (
-            p.setup_seconds(),
+            p.setup_seconds,
             format!(
                 "Measured: each march group and reference rendered at {side} pixels a side on this machine ({renders} pilot render(s), {secs:.1} s{model}), scaled to its size; {setup:.1} s of loading the volumes included",
                 side = pilot::PILOT_SIDE,
@@ -401,7 +400,7 @@ fn print_estimates(
                 } else {
                     String::new()
                 },
-                setup = p.setup_seconds(),
+                setup = p.setup_seconds,
             ),
         ),
         Costing::Model => (
@@ -415,8 +414,9 @@ fn print_estimates(
     let cells_total: f64 = estimates.iter().sum::<f64>() + setup;
     let total = cells_total + references.seconds;
     println!(
-        "estimated {total:.0} s of rendering ({:.1} h): {cells_total:.0} s for the cells in {groups} march group(s) and {:.0} s for {} reference(s){}. {how}. Planned in {:.3} s.",
+        "estimated {total:.0} s of rendering ({:.1} h): {cells_total:.0} s for the cells in {} march group(s) and {:.0} s for {} reference(s){}. {how}. Planned in {:.3} s.",
         total / 3600.0,
+        groups.len(),
         references.seconds,
         references.count,
         references.pool_note(pool),
