@@ -17,11 +17,11 @@ use super::Medium;
 use super::compact_density::CompactDensity;
 use super::majorant::CrossingAxis;
 use crate::math::Ray;
-use crate::volume::{Reconstruction, Voxels, trilinear_corners};
+use crate::volume::{Grid, Reconstruction, Voxels, trilinear_corners};
 
 /// A 3-D DDA over unit cells of a continuous coordinate `c(t) = origin + t · direction`:
 /// yields the parameter intervals of the successive cells in `[t_min, t_max]`.
-struct CellWalk {
+pub(super) struct CellWalk {
     t: f32,
     t_max: f32,
     next: [f32; 3],
@@ -29,7 +29,7 @@ struct CellWalk {
 }
 
 impl CellWalk {
-    fn new(origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Self {
+    pub(super) fn new(origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Self {
         let c = origin + direction * t_min;
         let mut next = [f32::INFINITY; 3];
         let mut delta = [f32::INFINITY; 3];
@@ -85,6 +85,49 @@ impl Iterator for CellWalk {
 fn floor_i64(x: f32) -> i64 {
     let truncated = x as i64;
     truncated - i64::from(x < truncated as f32)
+}
+
+/// A ray in the coordinates of the grid of voxel centres (centres at integers), where the
+/// trilinear density is a cubic in `t` within each cell, and the corners of those cells.
+pub(super) struct CentreFrame {
+    /// The ray's origin in centre coordinates.
+    pub origin: Vec3,
+    /// The ray's direction in centre coordinates (per unit of the ray's `t`).
+    pub direction: Vec3,
+    last: [i64; 3],
+    pitch: [usize; 3],
+}
+
+impl CentreFrame {
+    pub fn new(grid: &Grid, ray: &Ray) -> Self {
+        let bounds = grid.bounds();
+        let dims = grid.dims();
+        let scale = Vec3::from(dims.map(|n| n as f32)) / bounds.extent();
+        CentreFrame {
+            origin: (ray.origin - bounds.min) * scale - Vec3::splat(0.5),
+            direction: ray.direction * scale,
+            last: dims.map(|n| n as i64 - 1),
+            pitch: [1, dims[0], dims[0] * dims[1]],
+        }
+    }
+
+    /// The cell holding the point `c` (centre coordinates).
+    #[inline]
+    pub fn cell_of(c: Vec3) -> [i64; 3] {
+        [floor_i64(c.x), floor_i64(c.y), floor_i64(c.z)]
+    }
+
+    /// The eight corner values of `cell`, with indices clamped as the reconstruction
+    /// clamps them (the outer half-voxel shell is constant: its corners coincide along the
+    /// clamped axis, so the cell's polynomial does not depend on that coordinate).
+    #[inline]
+    pub fn corners<V: Voxels + ?Sized>(&self, voxels: &V, cell: [i64; 3]) -> [f32; 8] {
+        let (last, pitch) = (self.last, self.pitch);
+        // The lower corner's index and the steps to the upper ones (0 where clamped).
+        let lo = [0, 1, 2].map(|a| cell[a].clamp(0, last[a]) as usize);
+        let step = [0, 1, 2].map(|a| ((cell[a] + 1).clamp(0, last[a]) as usize - lo[a]) * pitch[a]);
+        voxels.corners(lo[0] + lo[1] * pitch[1] + lo[2] * pitch[2], step)
+    }
 }
 
 /// The optical depth past which a light counts as blocked, for a cap `tau_max` (one more
@@ -181,35 +224,22 @@ impl Medium {
         voxels: &V,
         stop: f32,
     ) -> f32 {
-        let grid = &self.density;
-        let bounds = grid.bounds();
-        let dims = grid.dims();
-        let scale = Vec3::from(dims.map(|n| n as f32)) / bounds.extent();
-        // Centre coordinates: voxel centres at integers.
-        let origin = (ray.origin - bounds.min) * scale - Vec3::splat(0.5);
-        let direction = ray.direction * scale;
-        let last = dims.map(|n| n as i64 - 1);
-        let pitch = [1, dims[0], dims[0] * dims[1]];
+        let frame = CentreFrame::new(&self.density, ray);
+        let (origin, direction) = (frame.origin, frame.direction);
         let mut sum = 0.0f32;
         let empty = self.empty_cells();
-        let mut f0 = grid.trilinear_clamped(ray.at(ta));
+        let mut f0 = self.density.trilinear_clamped(ray.at(ta));
         for (t0, t1) in CellWalk::new(origin, direction, ta, tb) {
             let tm = 0.5 * (t0 + t1);
             let cm = origin + direction * tm;
-            // The cell holding the midpoint; corner indices clamped as the reconstruction
-            // clamps them (the outer half-voxel shell is constant).
-            let cell = [floor_i64(cm.x), floor_i64(cm.y), floor_i64(cm.z)];
+            let cell = CentreFrame::cell_of(cm);
             if empty.is_empty(cell) {
                 // Eight zero corners: f_m = f₁ = 0, and (f₀ + 4·0 + 0) is f₀ to the bit.
                 sum += (t1 - t0) * f0;
                 f0 = 0.0;
                 continue;
             }
-            // The lower corner's index and the steps to the upper ones (0 where clamped).
-            let lo = [0, 1, 2].map(|a| cell[a].clamp(0, last[a]) as usize);
-            let step =
-                [0, 1, 2].map(|a| ((cell[a] + 1).clamp(0, last[a]) as usize - lo[a]) * pitch[a]);
-            let corners = voxels.corners(lo[0] + lo[1] * pitch[1] + lo[2] * pitch[2], step);
+            let corners = frame.corners(voxels, cell);
             let base = Vec3::new(cell[0] as f32, cell[1] as f32, cell[2] as f32);
             let local = |c: Vec3| (c - base).clamp(Vec3::ZERO, Vec3::ONE);
             let fm = trilinear_corners(&corners, local(cm).to_array());
