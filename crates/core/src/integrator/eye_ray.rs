@@ -53,6 +53,41 @@ impl Marcher<'_> {
         evaluation: Evaluation,
     ) {
         self.collect_samples(ray, rng, acc);
+        self.shade_samples(ray, rng, acc, evaluation);
+    }
+
+    /// Traces one eye ray from its samples as an earlier pass collected them (`samples`,
+    /// from [`Self::collect_samples`] on the same ray and random stream): the same
+    /// radiance to the bit, without marching the ray again.
+    pub(super) fn trace_replayed(
+        &self,
+        ray: &Ray,
+        rng: &mut Rng,
+        samples: &[RaySample],
+        acc: &mut Accumulator,
+    ) {
+        acc.samples.clear();
+        if samples.is_empty() {
+            return;
+        }
+        // The march drew its jitter from the stream (one uniform; a ray that misses the
+        // box draws none and has no samples): draw it, so the shading goes on with the
+        // stream where it did.
+        let _jitter = rng.uniform();
+        acc.samples.extend_from_slice(samples);
+        acc.counters.samples += samples.len() as u64;
+        self.shade_samples(ray, rng, acc, Evaluation::Scene);
+    }
+
+    /// The source terms at the collected samples `acc.samples`: single scattering by each
+    /// light, multiple scattering by each photon map (or the beams).
+    fn shade_samples(
+        &self,
+        ray: &Ray,
+        rng: &mut Rng,
+        acc: &mut Accumulator,
+        evaluation: Evaluation,
+    ) {
         if acc.samples.is_empty() {
             return;
         }

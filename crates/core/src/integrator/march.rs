@@ -65,6 +65,51 @@ pub(super) struct Marcher<'a> {
     pub(super) shadow_tau_max: f32,
     /// The largest spacing of gathers in a thinned band, in samples.
     pub(super) gather_knot_cap: usize,
+    /// An earlier pass's eye samples, marched again from there instead of the medium.
+    pub(super) replay: Option<&'a EyeSampleStore>,
+}
+
+/// The most eye samples a pass keeps for later passes (32 bytes each: 4 GiB). A render
+/// of more marches every pass again.
+const EYE_SAMPLE_CAP: u64 = 1 << 27;
+
+/// What a pass does with the samples of its eye rays.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum EyeSamples<'a> {
+    /// Marches the medium and forgets them.
+    March,
+    /// Marches the medium and keeps them (up to [`EYE_SAMPLE_CAP`]) for later passes.
+    Record,
+    /// Takes them from an earlier pass over the same camera, medium, seed and marching
+    /// settings: the eye rays' samples do not depend on the photon map or the layers.
+    Replay(&'a EyeSampleStore),
+}
+
+/// The eye samples of one pass, row by row: what a progressive render's later iterations
+/// march again (their eye rays and random streams are the first iteration's).
+#[derive(Debug, Default)]
+pub(super) struct EyeSampleStore {
+    rows: Vec<RowSamples>,
+}
+
+impl EyeSampleStore {
+    /// The samples of eye ray `ray` (pixel `x`, sample `s`: `x · spp + s`) of row `y`.
+    fn ray(&self, y: u32, ray: usize) -> &[RaySample] {
+        let row = &self.rows[y as usize];
+        let start = if ray == 0 {
+            0
+        } else {
+            row.ends[ray - 1] as usize
+        };
+        &row.samples[start..row.ends[ray] as usize]
+    }
+}
+
+/// One row's eye samples, its rays' in order; `ends[i]` is where ray `i`'s end.
+#[derive(Debug, Default)]
+struct RowSamples {
+    samples: Vec<RaySample>,
+    ends: Vec<u32>,
 }
 
 #[derive(Default)]
@@ -147,6 +192,8 @@ struct Row {
     depth: Vec<f32>,
     multiple: Vec<Vec<Vec3>>,
     counters: RowCounters,
+    /// The row's eye samples, when the pass keeps them.
+    samples: Option<RowSamples>,
 }
 
 impl Row {
@@ -157,6 +204,7 @@ impl Row {
             depth: vec![f32::INFINITY; width],
             multiple: vec![vec![Vec3::ZERO; width]; variants],
             counters: RowCounters::default(),
+            samples: None,
         }
     }
 
@@ -195,20 +243,32 @@ impl Marcher<'_> {
     }
 
     /// Renders image row `y`: `spp` jittered eye rays per pixel, each from its own random
-    /// stream `(seed, pixel, sample)`.
-    fn render_row(&self, camera: &Camera, y: u32) -> Row {
+    /// stream `(seed, pixel, sample)`; keeps the rays' samples when `record` asks.
+    fn render_row(&self, camera: &Camera, y: u32, record: bool) -> Row {
         let width = camera.width();
         let spp = self.settings.spp;
         let mut row = Row::new(width as usize, self.variants.len());
+        let mut kept = record.then(RowSamples::default);
         let mut acc = self.accumulator();
         for x in 0..width {
             acc.start_pixel();
             for sample in 0..spp {
                 let (ray, mut rng) = self.eye_ray(camera, x, y, sample);
-                self.trace(&ray, &mut rng, &mut acc);
+                match self.replay {
+                    Some(store) => {
+                        let index = (x * spp + sample) as usize;
+                        self.trace_replayed(&ray, &mut rng, store.ray(y, index), &mut acc);
+                    }
+                    None => self.trace(&ray, &mut rng, &mut acc),
+                }
+                if let Some(kept) = &mut kept {
+                    kept.samples.extend_from_slice(&acc.samples);
+                    kept.ends.push(kept.samples.len() as u32);
+                }
             }
             row.store(x as usize, &acc, spp);
         }
+        row.samples = kept;
         row.counters = std::mem::take(&mut acc.counters);
         row
     }
@@ -228,7 +288,15 @@ pub fn render_march(
     variants: &[MsVariant],
     control: &Control<'_>,
 ) -> Result<MarchOutput> {
-    march_measured(scene, maps, variants, control, Measure::asked_by(control))
+    march_measured(
+        scene,
+        maps,
+        variants,
+        control,
+        Measure::asked_by(control),
+        EyeSamples::March,
+    )
+    .map(|(out, _)| out)
 }
 
 /// Whether a pass measures what its caches and thinning err by ([`super::cache_error`]).
@@ -252,14 +320,16 @@ impl Measure {
     }
 }
 
-/// [`render_march`], measuring the errors or not.
+/// [`render_march`], measuring the errors or not, keeping or replaying the eye samples as
+/// `eye` says (the samples it kept, when it kept them).
 pub(super) fn march_measured(
     scene: &Scene,
     maps: &[&PhotonMap],
     variants: &[MsVariant],
     control: &Control<'_>,
     measure: Measure,
-) -> Result<MarchOutput> {
+    eye: EyeSamples<'_>,
+) -> Result<(MarchOutput, Option<EyeSampleStore>)> {
     let settings = scene.integrator();
     let medium = scene.medium();
     let own = [MsVariant::of_scene(settings)];
@@ -278,7 +348,7 @@ pub(super) fn march_measured(
         ));
     }
     let groups = group_by_map(variants, maps, settings, medium.bounds())?;
-    run_march(scene, variants, groups, None, control, measure)
+    run_march(scene, variants, groups, None, control, (measure, eye))
 }
 
 /// Renders a scene with the ray-marching integrator, the multiple-scattering term from the
@@ -289,31 +359,48 @@ pub fn render_march_beams(
     beams: &BeamMap<'_>,
     control: &Control<'_>,
 ) -> Result<MarchOutput> {
-    beams_measured(scene, beams, control, Measure::asked_by(control))
+    beams_measured(
+        scene,
+        beams,
+        control,
+        Measure::asked_by(control),
+        EyeSamples::March,
+    )
+    .map(|(out, _)| out)
 }
 
-/// [`render_march_beams`], measuring the errors or not.
+/// [`render_march_beams`], measuring the errors or not, keeping or replaying the eye
+/// samples as `eye` says.
 pub(super) fn beams_measured(
     scene: &Scene,
     beams: &BeamMap<'_>,
     control: &Control<'_>,
     measure: Measure,
-) -> Result<MarchOutput> {
+    eye: EyeSamples<'_>,
+) -> Result<(MarchOutput, Option<EyeSampleStore>)> {
     let settings = scene.integrator();
     let own = [MsVariant::of_scene(settings)];
     let variants: &[MsVariant] = if settings.multiple { &own } else { &[] };
-    run_march(scene, variants, Vec::new(), Some(beams), control, measure)
+    run_march(
+        scene,
+        variants,
+        Vec::new(),
+        Some(beams),
+        control,
+        (measure, eye),
+    )
 }
 
-/// The pass itself: rows in parallel, then the films and counters.
+/// The pass itself: rows in parallel, then the films and counters (and the eye samples,
+/// when the pass keeps them).
 fn run_march<'a>(
     scene: &'a Scene,
     variants: &'a [MsVariant],
     groups: Vec<MapGroup<'a>>,
     beams: Option<&'a BeamMap<'a>>,
     control: &Control<'_>,
-    measure: Measure,
-) -> Result<MarchOutput> {
+    (measure, eye): (Measure, EyeSamples<'a>),
+) -> Result<(MarchOutput, Option<EyeSampleStore>)> {
     let start = Instant::now();
     let settings = scene.integrator();
     let medium = scene.medium();
@@ -341,22 +428,29 @@ fn run_march<'a>(
                 .map(|_| TransmittanceCache::new(bounds, settings.shadow_cache))
                 .collect()
         }),
+        replay: match eye {
+            EyeSamples::Replay(store) => Some(store),
+            EyeSamples::March | EyeSamples::Record => None,
+        },
     };
     let camera = scene.camera();
     let rows_done = AtomicU64::new(0);
-    let rows: Vec<Row> = (0..camera.height() as usize)
+    let keeper = SampleKeeper::new(matches!(eye, EyeSamples::Record));
+    let mut rows: Vec<Row> = (0..camera.height() as usize)
         .into_par_iter()
         .map(|y| {
             if control.expired() {
                 // Past the time limit: the remaining rows are skipped and the pass fails.
                 return Row::new(0, 0);
             }
-            let row = marcher.render_row(camera, y as u32);
+            let mut row = marcher.render_row(camera, y as u32, keeper.keeping());
+            keeper.admit(&mut row);
             control.report(rows_done.fetch_add(1, Ordering::Relaxed) + 1);
             row
         })
         .collect();
     control.check()?;
+    let store = keeper.store(&mut rows);
     let (films, mut stats) = assemble(rows, camera, variants.len(), settings.spp);
     stats.shadow_cache_nodes = marcher
         .shadow_caches
@@ -374,11 +468,60 @@ fn run_march<'a>(
         Measure::Skip => vec![None; variants.len().max(1)],
     };
     stats.seconds = start.elapsed().as_secs_f64();
-    Ok(MarchOutput {
+    let out = MarchOutput {
         films,
         stats,
         cache_errors,
-    })
+    };
+    Ok((out, store))
+}
+
+/// Keeps the rows' eye samples up to [`EYE_SAMPLE_CAP`]; past it, none.
+struct SampleKeeper {
+    asked: bool,
+    kept: AtomicU64,
+    overflowed: std::sync::atomic::AtomicBool,
+}
+
+impl SampleKeeper {
+    fn new(asked: bool) -> Self {
+        SampleKeeper {
+            asked,
+            kept: AtomicU64::new(0),
+            overflowed: Default::default(),
+        }
+    }
+
+    /// Whether rows still keep their samples.
+    fn keeping(&self) -> bool {
+        self.asked && !self.overflowed.load(Ordering::Relaxed)
+    }
+
+    /// Counts a finished row's samples; drops them once the cap is passed (the rows kept
+    /// before are dropped by [`Self::store`]).
+    fn admit(&self, row: &mut Row) {
+        let Some(samples) = &row.samples else { return };
+        let total = self
+            .kept
+            .fetch_add(samples.samples.len() as u64, Ordering::Relaxed)
+            + samples.samples.len() as u64;
+        if total > EYE_SAMPLE_CAP {
+            self.overflowed.store(true, Ordering::Relaxed);
+            row.samples = None;
+        }
+    }
+
+    /// The rows' samples as one store, when every row kept them.
+    fn store(&self, rows: &mut [Row]) -> Option<EyeSampleStore> {
+        if !self.asked || self.overflowed.load(Ordering::Relaxed) {
+            return None;
+        }
+        let rows = rows
+            .iter_mut()
+            .map(|row| row.samples.take())
+            .collect::<Option<_>>()?;
+        Some(EyeSampleStore { rows })
+    }
 }
 
 /// Joins the rows into one film per variant (sharing the single, emission and depth

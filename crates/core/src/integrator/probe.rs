@@ -52,6 +52,7 @@ pub fn probe_eye_rays(scene: &Scene, rays: u32) -> EyeProbe {
             scene.medium().density_grid().voxel_size().min_element(),
             settings.stepsize,
         ),
+        replay: None,
     };
     let camera = scene.camera();
     let (width, height) = (camera.width() as f32, camera.height() as f32);

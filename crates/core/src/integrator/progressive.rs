@@ -13,7 +13,8 @@
 //! unbiased solution. Only one iteration's photons are held at a time. The single
 //! (and emission) layers come from the first iteration's march; later marches add only
 //! the multiple-scattering term, at the same eye samples (each pixel's random stream is
-//! the same in every iteration).
+//! the same in every iteration), which the first march keeps (32 bytes a sample, up to
+//! 4 GiB) so that later ones shade them without marching the medium again.
 //!
 //! The beam estimate ([`super::beam`]) runs through the same loop: its photons' own radii
 //! shrink by one factor per iteration, `((i + α)/(i + 1))^{1/2}` (its kernel is a disc
@@ -27,7 +28,9 @@ use serde::{Deserialize, Serialize};
 use super::beam::{beam_masked, beam_radius};
 use super::cache_error::CacheError;
 use super::gather::MsVariant;
-use super::march::{MarchStats, Measure, beams_measured, march_measured};
+use super::march::{
+    EyeSampleStore, EyeSamples, MarchStats, Measure, beams_measured, march_measured,
+};
 use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
@@ -58,7 +61,7 @@ pub struct ProgressiveStats {
     /// Seconds spent marching, all iterations.
     pub march_seconds: f64,
     /// Seconds spent marching, per iteration: the first renders every layer, the later
-    /// ones the multiple layer alone.
+    /// ones the multiple layer alone, at the first one's eye samples.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub march_seconds_each: Vec<f64>,
     /// RMSE of the image after each iteration against the reference the render was given
@@ -157,6 +160,8 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
         MsEstimator::Beam => 1.0,
         _ => s.maxdist,
     };
+    // The first march's eye samples, which every later one shades again.
+    let mut eye_samples: Option<EyeSampleStore> = None;
     for i in 1..=s.iterations {
         let map = trace_iteration(scene, &s, i, photons, control)?;
         stats.photon_seconds += map.stats().seconds;
@@ -172,13 +177,25 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
         } else {
             Measure::Skip
         };
+        let eye = match (&eye_samples, i) {
+            (Some(store), _) => EyeSamples::Replay(store),
+            (None, 1) if s.iterations > 1 => EyeSamples::Record,
+            (None, _) => EyeSamples::March,
+        };
+        let pass = Pass {
+            index: i,
+            measure,
+            eye,
+        };
         let IterationPass {
             film: iteration_film,
             march,
             radius: used_radius,
             cache_error,
             build_seconds,
-        } = march_iteration(scene, &s, i, &map, radius, &iteration_control, measure)?;
+            eye_samples: kept,
+        } = march_iteration(scene, &s, &map, radius, &iteration_control, pass)?;
+        eye_samples = eye_samples.or(kept);
         stats.tree_seconds += build_seconds;
         stats.march_seconds += march.seconds;
         stats.march_seconds_each.push(march.seconds);
@@ -283,19 +300,36 @@ struct IterationPass {
     /// Seconds spent building the beams' hierarchy (0 for point gathers, whose kd-tree is
     /// the photon map's).
     build_seconds: f64,
+    /// The eye samples the pass kept for later ones.
+    eye_samples: Option<EyeSampleStore>,
+}
+
+/// Which iteration a march is (1-based), whether it measures thinning's error, and where
+/// its eye samples come from.
+struct Pass<'a> {
+    index: u32,
+    measure: Measure,
+    eye: EyeSamples<'a>,
 }
 
 /// One iteration's march: everything in the first, the multiple term alone afterwards
-/// (measuring what thinning errs by when `measure` asks).
+/// (measuring what thinning errs by when the pass asks). Later iterations shade the first
+/// one's eye samples again instead of marching the medium: each pixel's random stream is
+/// the same every iteration, so its samples are too, and only the photon map and the
+/// radius differ (the same image to the bit, a test checks it).
 fn march_iteration(
     scene: &Scene,
     s: &IntegratorParams,
-    i: u32,
     map: &PhotonMap,
     radius: f32,
     control: &Control<'_>,
-    measure: Measure,
+    pass: Pass<'_>,
 ) -> Result<IterationPass> {
+    let Pass {
+        index: i,
+        measure,
+        eye,
+    } = pass;
     let mut settings = s.clone();
     if i > 1 {
         settings.single = false;
@@ -306,7 +340,7 @@ fn march_iteration(
         let start = Instant::now();
         let beams = BeamMap::new(map, beam_radius(s, radius), scene.medium(), beam_masked(s));
         let build_seconds = start.elapsed().as_secs_f64();
-        let mut out = beams_measured(&scene, &beams, control, measure)?;
+        let (mut out, eye_samples) = beams_measured(&scene, &beams, control, measure, eye)?;
         // The hierarchy is a search structure built once per map, like a kd-tree: its
         // time is the tree's, not the march's (which scales with the pixels).
         return Ok(IterationPass {
@@ -315,6 +349,7 @@ fn march_iteration(
             radius: beams.mean_radius(),
             cache_error: out.cache_errors.swap_remove(0),
             build_seconds,
+            eye_samples,
         });
     }
     let variant = MsVariant {
@@ -323,13 +358,14 @@ fn march_iteration(
         maxdist: radius,
         estimate: s.estimate,
     };
-    let mut out = march_measured(&scene, &[map], &[variant], control, measure)?;
+    let (mut out, eye_samples) = march_measured(&scene, &[map], &[variant], control, measure, eye)?;
     Ok(IterationPass {
         film: out.films.swap_remove(0),
         march: out.stats,
         radius,
         cache_error: out.cache_errors.swap_remove(0),
         build_seconds: 0.0,
+        eye_samples,
     })
 }
 
@@ -379,6 +415,62 @@ fn accumulate(sum: &mut Vec<Vec3>, layer: &[Vec3]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::{SPOT_SPHERE, scene as scene_from};
+
+    /// The multiple layer of `iterations` passes that each march the medium again, as
+    /// [`render_progressive`] did before it kept the first pass's eye samples.
+    fn marching_every_pass(scene: &Scene, iterations: u32) -> Vec<Vec3> {
+        let s = scene.integrator().clone();
+        let control = Control::none();
+        let mut radius = match s.estimator {
+            MsEstimator::Beam => 1.0,
+            _ => s.maxdist,
+        };
+        let mut sum = Vec::new();
+        for i in 1..=iterations {
+            let map = trace_iteration(scene, &s, i, s.photons_per_iteration, &control).unwrap();
+            if i == 1
+                && s.initial_radius == InitialRadius::Nused
+                && s.estimator != MsEstimator::Beam
+            {
+                radius = median_nused_distance(&map, s.nused, s.maxdist);
+            }
+            let pass = Pass {
+                index: i,
+                measure: Measure::Skip,
+                eye: EyeSamples::March,
+            };
+            let out = march_iteration(scene, &s, &map, radius, &control, pass).unwrap();
+            assert!(out.eye_samples.is_none());
+            accumulate(&mut sum, out.film.layer(Layer::Multiple));
+            radius = next_radius(radius, i, s.alpha, s.estimator);
+        }
+        sum.iter().map(|v| *v / iterations as f32).collect()
+    }
+
+    #[test]
+    fn later_iterations_shade_the_first_eye_samples_to_the_bit() {
+        // Not square and two eye rays a pixel, so a sample store indexed wrongly by row,
+        // pixel or ray would shade another ray's samples; thinned (the default).
+        let src = SPOT_SPHERE.replace("resolution = [20, 20]", "resolution = [13, 9]");
+        for estimator in [MsEstimator::Progressive, MsEstimator::Beam] {
+            let mut settings = scene_from(&src).integrator().clone();
+            settings.estimator = estimator;
+            settings.iterations = 4;
+            settings.photons_per_iteration = 4_000;
+            settings.spp = 2;
+            let scene = scene_from(&src).with_integrator(settings).unwrap();
+            let out = render_progressive(&scene, &Control::none()).unwrap();
+            let expected = marching_every_pass(&scene, 4);
+            let got = out.film.layer(Layer::Multiple);
+            assert!(got.iter().any(|v| v.x > 0.0), "{estimator:?}: a lit image");
+            let same = got
+                .iter()
+                .zip(&expected)
+                .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits));
+            assert!(same, "{estimator:?}: the replayed passes differ");
+        }
+    }
 
     #[test]
     fn radii_follow_the_closed_form_schedule() {
