@@ -86,6 +86,21 @@ impl Default for MediumSettings {
 /// Points of [`ball_points`].
 const BALL_POINTS: usize = 32;
 
+/// The centre and the [`ball_points`] by axis (`[axis][point]`, the centre at 0 with
+/// offset 0, so `center + 0·r` is `center`).
+fn ball_points_by_axis() -> &'static [[f32; BALL_POINTS + 1]; 3] {
+    static AXES: std::sync::OnceLock<[[f32; BALL_POINTS + 1]; 3]> = std::sync::OnceLock::new();
+    AXES.get_or_init(|| {
+        let mut axes = [[0.0; BALL_POINTS + 1]; 3];
+        for (i, p) in ball_points().iter().enumerate() {
+            for (a, axis) in axes.iter_mut().enumerate() {
+                axis[i + 1] = p[a];
+            }
+        }
+        axes
+    })
+}
+
 /// 32 points spread evenly through the unit ball (equal-volume shells, golden-angle
 /// spirals), the same for every query so estimates stay deterministic.
 fn ball_points() -> &'static [Vec3] {
@@ -338,42 +353,63 @@ impl Medium {
     /// corners lie far apart in a grid larger than the processor's caches, and the bit is
     /// one load, the compact corners a quarter of the memory.
     pub fn occupancy(&self, center: Vec3, r: f32) -> f32 {
-        let points = ball_points();
-        let at = |i: usize| {
-            if i == 0 {
-                center
-            } else {
-                center + points[i - 1] * r
-            }
-        };
         if self.reconstruction == Reconstruction::Nearest {
+            let points = ball_points();
+            let at = |i: usize| {
+                if i == 0 {
+                    center
+                } else {
+                    center + points[i - 1] * r
+                }
+            };
             let inside = (0..=points.len())
                 .filter(|&i| self.density(at(i)) > 0.0)
                 .count();
             return inside as f32 / (points.len() + 1) as f32;
         }
-        // Two passes, so the points' memory reads overlap instead of waiting on each other
-        // behind a branch: first every point's empty-cell bit (points outside the box
-        // answered from the density), keeping the cells that are not empty; then their
-        // corners. The count is the same as asking `density(p) > 0` point by point.
-        let mut pending = [([0usize; 3], [0.0f32; 3]); BALL_POINTS + 1];
-        let mut n_pending = 0;
-        let mut inside = 0;
-        let empty = self.empty_cells();
-        for i in 0..=points.len() {
-            let p = at(i);
-            if !self.bounds().contains(p) {
-                inside += usize::from(self.density(p) > 0.0);
-                continue;
+        // Three passes, so that neither arithmetic nor memory waits on a branch: every
+        // point's cell and fractions, axis by axis over all 33 points (loops the compiler
+        // vectorises; the same operations as `Grid::trilinear_cell` on `center + q·r`, so
+        // the same values); then the empty-cell bits of the points inside the box (outside
+        // it the density is 0), keeping the cells that are not empty; then their corners.
+        // The count is the same as asking `density(p) > 0` point by point.
+        const N: usize = BALL_POINTS + 1;
+        let by_axis = ball_points_by_axis();
+        let (bounds, dims, scale) = (self.bounds(), self.density.dims(), self.density.scale());
+        let mut in_box = [true; N];
+        let mut cell = [[0i32; N]; 3];
+        let mut fraction = [[0.0f32; N]; 3];
+        for a in 0..3 {
+            let (lo, hi, s) = (bounds.min[a], bounds.max[a], scale[a]);
+            let (top, last_lower) = ((dims[a] - 1) as f32, dims[a].saturating_sub(2) as i32);
+            for i in 0..N {
+                let p = center[a] + by_axis[a][i] * r;
+                in_box[i] &= p >= lo && p <= hi;
+                // `clamp(0, top)` for the finite coordinates a ball around a sample has.
+                let f = ((p - lo) * s - 0.5).max(0.0).min(top);
+                let lower = (f as i32).min(last_lower);
+                cell[a][i] = lower;
+                fraction[a][i] = f - lower as f32;
             }
-            let (cell, fraction) = self.density.trilinear_cell(p);
-            pending[n_pending] = (cell, fraction);
-            n_pending += usize::from(!empty.is_empty(cell.map(|c| c as i64)));
         }
-        for &(cell, fraction) in &pending[..n_pending] {
-            inside += usize::from(self.trilinear_compact(cell, fraction) > 0.0);
+        let empty = self.empty_cells();
+        let mut pending = [0u8; N];
+        let mut n_pending = 0;
+        for i in 0..N {
+            let c = [0, 1, 2].map(|a| cell[a][i] as i64);
+            pending[n_pending] = i as u8;
+            n_pending += usize::from(in_box[i] && !empty.is_empty(c));
         }
-        inside as f32 / (points.len() + 1) as f32
+        let inside = pending[..n_pending]
+            .iter()
+            .map(|&i| {
+                let i = i as usize;
+                let c = [0, 1, 2].map(|a| cell[a][i] as usize);
+                let f = [0, 1, 2].map(|a| fraction[a][i]);
+                usize::from(self.trilinear_compact(c, f) > 0.0)
+            })
+            .sum::<usize>();
+        inside as f32 / N as f32
     }
 
     /// The interpolation [`Grid::trilinear_clamped`] makes in `cell` at `fraction` (as

@@ -212,6 +212,12 @@ impl Grid {
         (base, step)
     }
 
+    /// Voxels per unit length along each axis (`dims / extent`).
+    #[inline]
+    pub(crate) fn scale(&self) -> Vec3 {
+        self.scale
+    }
+
     /// The lower corner of the cell of voxel centres that [`Self::trilinear_clamped`]
     /// interpolates at `p` (it reads that voxel and the next one along each axis, clamped
     /// to the grid), and `p`'s fractions between them.
