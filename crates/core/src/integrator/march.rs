@@ -452,17 +452,7 @@ fn run_march<'a>(
     control.check()?;
     let store = keeper.store(&mut rows);
     let (films, mut stats) = assemble(rows, camera, variants.len(), settings.spp);
-    stats.shadow_cache_nodes = marcher
-        .shadow_caches
-        .as_ref()
-        .map(|c| c.iter().map(|c| c.computed.load(Ordering::Relaxed)).sum())
-        .unwrap_or(0);
-    stats.ms_cache_nodes = marcher
-        .groups
-        .iter()
-        .filter_map(|g| g.cache.as_ref())
-        .map(|c| c.computed.load(Ordering::Relaxed))
-        .sum();
+    (stats.shadow_cache_nodes, stats.ms_cache_nodes) = marcher.cache_nodes();
     let cache_errors = match measure {
         Measure::Errors => marcher.cache_errors(camera),
         Measure::Skip => vec![None; variants.len().max(1)],
@@ -474,6 +464,24 @@ fn run_march<'a>(
         cache_errors,
     };
     Ok((out, store))
+}
+
+impl Marcher<'_> {
+    /// The nodes the transmittance caches and the multiple-scattering caches computed.
+    fn cache_nodes(&self) -> (u64, u64) {
+        let shadow = self
+            .shadow_caches
+            .as_ref()
+            .map(|c| c.iter().map(|c| c.computed.load(Ordering::Relaxed)).sum())
+            .unwrap_or(0);
+        let multiple = self
+            .groups
+            .iter()
+            .filter_map(|g| g.cache.as_ref())
+            .map(|c| c.computed.load(Ordering::Relaxed))
+            .sum();
+        (shadow, multiple)
+    }
 }
 
 /// Keeps the rows' eye samples up to [`EYE_SAMPLE_CAP`]; past it, none.
