@@ -144,17 +144,7 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
         s.volume_photons
     };
     let rows = scene.camera().height() as u64;
-    let mut stats = ProgressiveStats {
-        photons_per_iteration: photons,
-        ..Default::default()
-    };
-    let mut film: Option<Film> = None;
-    let (mut first_march, mut first_photons) = (MarchStats::default(), PhotonStats::default());
-    let mut first_error = None;
-    let mut multiple_sum: Vec<Vec3> = Vec::new();
-    // With a reference: the first march's direct layers, the part of the image that no
-    // later iteration changes.
-    let mut direct: Vec<Vec3> = Vec::new();
+    let mut sums = Iterations::new(photons);
     // The point estimate's radius, or the beams' scale of their own radii.
     let mut radius = match s.estimator {
         MsEstimator::Beam => 1.0,
@@ -164,82 +154,141 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
     let mut eye_samples: Option<EyeSampleStore> = None;
     for i in 1..=s.iterations {
         let map = trace_iteration(scene, &s, i, photons, control)?;
-        stats.photon_seconds += map.stats().seconds;
-        stats.tree_seconds += map.build_seconds();
         if i == 1 && s.initial_radius == InitialRadius::Nused && s.estimator != MsEstimator::Beam {
             radius = median_nused_distance(&map, s.nused, s.maxdist);
         }
         let progress = |r: u64| control.report((i as u64 - 1) * rows + r);
         let iteration_control = control.with_progress(&progress);
-        // The first march renders every layer, so it is the one thinning is measured on.
-        let measure = if i == 1 {
-            Measure::asked_by(control)
-        } else {
-            Measure::Skip
-        };
-        let eye = match (&eye_samples, i) {
-            (Some(store), _) => EyeSamples::Replay(store),
-            (None, 1) if s.iterations > 1 => EyeSamples::Record,
-            (None, _) => EyeSamples::March,
-        };
         let pass = Pass {
             index: i,
-            measure,
-            eye,
+            // The first march renders every layer, so it is the one thinning is measured on.
+            measure: if i == 1 {
+                Measure::asked_by(control)
+            } else {
+                Measure::Skip
+            },
+            eye: match (&eye_samples, i) {
+                (Some(store), _) => EyeSamples::Replay(store),
+                (None, 1) if s.iterations > 1 => EyeSamples::Record,
+                (None, _) => EyeSamples::March,
+            },
         };
-        let IterationPass {
-            film: iteration_film,
-            march,
-            radius: used_radius,
-            cache_error,
-            build_seconds,
-            eye_samples: kept,
-        } = march_iteration(scene, &s, &map, radius, &iteration_control, pass)?;
-        eye_samples = eye_samples.or(kept);
-        stats.tree_seconds += build_seconds;
-        stats.march_seconds += march.seconds;
-        stats.march_seconds_each.push(march.seconds);
-        stats.radii.push(used_radius);
-        stats.stored.push(map.stats().stored);
-        stats.stored_power.push(stored_power(&map));
-        accumulate(&mut multiple_sum, iteration_film.layer(Layer::Multiple));
-        if i == 1 {
-            first_march = march;
-            first_error = cache_error;
-            first_photons = map.stats().clone();
-            if control.reference().is_some() {
-                direct = iteration_film.combine(&Layer::shown(false, s.emission));
-            }
-            film = Some(iteration_film);
-        }
-        stats.iterations = i;
+        let mut iteration = march_iteration(scene, &s, &map, radius, &iteration_control, pass)?;
+        eye_samples = eye_samples.or(iteration.eye_samples.take());
+        sums.add(i, &map, iteration, &s, control);
         radius = next_radius(radius, i, s.alpha, s.estimator);
-        if let Some(reference) = control.reference() {
-            let error = error_after(&direct, &multiple_sum, i, reference);
-            stats.errors.push(error);
-            if s.target_rmse > 0.0 && error <= s.target_rmse as f64 {
-                stats.stopped = StopReason::TargetRmse;
-                break;
-            }
-        }
-        if s.time_budget > 0.0 && start.elapsed().as_secs_f64() >= s.time_budget as f64 {
-            stats.stopped = StopReason::TimeBudget;
+        if let Some(stopped) = sums.stop_reason(&s, control, start) {
+            sums.stats.stopped = stopped;
             break;
         }
     }
-    let mut film = film.expect("at least one iteration");
-    let n = stats.iterations as f32;
-    film.set_layer(
-        Layer::Multiple,
-        multiple_sum.iter().map(|v| *v / n).collect(),
-    );
-    Ok(ProgressiveOutput {
-        film,
-        march: first_march,
-        photons: first_photons,
-        stats,
-        cache_error: first_error,
-    })
+    Ok(sums.finish())
+}
+
+/// What the iterations of [`render_progressive`] have added up so far.
+struct Iterations {
+    stats: ProgressiveStats,
+    /// The first iteration's film (its single and emission layers are the image's).
+    film: Option<Film>,
+    first_march: MarchStats,
+    first_photons: PhotonStats,
+    first_error: Option<CacheError>,
+    /// The sum of the iterations' multiple layers.
+    multiple_sum: Vec<Vec3>,
+    /// With a reference: the first march's direct layers, the part of the image that no
+    /// later iteration changes.
+    direct: Vec<Vec3>,
+}
+
+impl Iterations {
+    fn new(photons_per_iteration: u64) -> Self {
+        Iterations {
+            stats: ProgressiveStats {
+                photons_per_iteration,
+                ..Default::default()
+            },
+            film: None,
+            first_march: MarchStats::default(),
+            first_photons: PhotonStats::default(),
+            first_error: None,
+            multiple_sum: Vec::new(),
+            direct: Vec::new(),
+        }
+    }
+
+    /// Adds iteration `i`, traced as `map` and marched as `pass`.
+    fn add(
+        &mut self,
+        i: u32,
+        map: &PhotonMap,
+        pass: IterationPass,
+        s: &IntegratorParams,
+        control: &Control<'_>,
+    ) {
+        let stats = &mut self.stats;
+        stats.photon_seconds += map.stats().seconds;
+        stats.tree_seconds += map.build_seconds();
+        stats.tree_seconds += pass.build_seconds;
+        stats.march_seconds += pass.march.seconds;
+        stats.march_seconds_each.push(pass.march.seconds);
+        stats.radii.push(pass.radius);
+        stats.stored.push(map.stats().stored);
+        stats.stored_power.push(stored_power(map));
+        stats.iterations = i;
+        accumulate(&mut self.multiple_sum, pass.film.layer(Layer::Multiple));
+        if i == 1 {
+            self.first_march = pass.march;
+            self.first_error = pass.cache_error;
+            self.first_photons = map.stats().clone();
+            if control.reference().is_some() {
+                self.direct = pass.film.combine(&Layer::shown(false, s.emission));
+            }
+            self.film = Some(pass.film);
+        }
+    }
+
+    /// Why the iterations stop after the last one added, if they do: the image came within
+    /// the target of the reference (its error is recorded on the way), or the time ran out.
+    fn stop_reason(
+        &mut self,
+        s: &IntegratorParams,
+        control: &Control<'_>,
+        start: Instant,
+    ) -> Option<StopReason> {
+        if let Some(reference) = control.reference() {
+            let error = error_after(
+                &self.direct,
+                &self.multiple_sum,
+                self.stats.iterations,
+                reference,
+            );
+            self.stats.errors.push(error);
+            if s.target_rmse > 0.0 && error <= s.target_rmse as f64 {
+                return Some(StopReason::TargetRmse);
+            }
+        }
+        let out_of_time =
+            s.time_budget > 0.0 && start.elapsed().as_secs_f64() >= s.time_budget as f64;
+        out_of_time.then_some(StopReason::TimeBudget)
+    }
+
+    /// The image (the first iteration's direct layers, the mean multiple layer) and what
+    /// the iterations did.
+    fn finish(self) -> ProgressiveOutput {
+        let mut film = self.film.expect("at least one iteration");
+        let n = self.stats.iterations as f32;
+        film.set_layer(
+            Layer::Multiple,
+            self.multiple_sum.iter().map(|v| *v / n).collect(),
+        );
+        ProgressiveOutput {
+            film,
+            march: self.first_march,
+            photons: self.first_photons,
+            stats: self.stats,
+            cache_error: self.first_error,
+        }
+    }
 }
 
 /// A target needs a reference of the camera's size.
