@@ -186,6 +186,7 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
 }
 
 /// What the iterations of [`render_progressive`] have added up so far.
+#[derive(Default)]
 struct Iterations {
     stats: ProgressiveStats,
     /// The first iteration's film (its single and emission layers are the image's).
@@ -207,12 +208,7 @@ impl Iterations {
                 photons_per_iteration,
                 ..Default::default()
             },
-            film: None,
-            first_march: MarchStats::default(),
-            first_photons: PhotonStats::default(),
-            first_error: None,
-            multiple_sum: Vec::new(),
-            direct: Vec::new(),
+            ..Default::default()
         }
     }
 
