@@ -388,8 +388,9 @@ fn print_estimates(
         Costing::Pilot(p) => (
             p.setup_seconds,
             format!(
-                "Measured: each march group and reference rendered at {side} pixels a side on this machine ({renders} pilot render(s), {secs:.1} s{model}), scaled to its size; {setup:.1} s of loading the volumes included",
+                "Measured: each march group and reference rendered at {side} pixels a side ({iterated} for progressive and beam cells) on this machine ({renders} pilot render(s), {secs:.1} s{model}), scaled to its size; {setup:.1} s of loading the volumes included",
                 side = pilot::PILOT_SIDE,
+                iterated = pilot::ITERATED_PILOT_SIDE,
                 renders = p.renders,
                 secs = p.seconds,
                 model = if modelled > 0 {
