@@ -12,7 +12,7 @@ use crate::control::Control;
 use crate::error::Result;
 use crate::film::{Film, Layer};
 use crate::integrator::{
-    CacheError, MarchStats, MsVariant, ProgressiveStats, progress_rows, render_march,
+    CacheError, MarchOutput, MarchStats, MsVariant, ProgressiveStats, progress_rows, render_march,
     render_progressive, render_reference,
 };
 use crate::medium::{FreePath, SigmaReport};
@@ -326,94 +326,132 @@ pub fn render_shared(
     control: &Control<'_>,
 ) -> Result<SharedRender> {
     if scene.integrator().method == Method::Reference {
-        let out = render(scene, control)?;
-        let film = SharedFilm {
-            film: out.film,
-            photons: None,
-            photon_seconds: 0.0,
-            tree_seconds: 0.0,
-            map_shared_by: 0,
-            cache_error: None,
-            progressive: None,
-        };
-        return Ok(SharedRender {
-            films: vec![film; variants.len()],
-            photon_maps: 0,
-            render_seconds: out.record.timings.render,
-        });
+        return render_reference_shared(scene, variants.len(), control);
     }
     if scene.integrator().estimator != MsEstimator::Points {
         return render_each(scene, variants, control);
     }
-    // Photon maps, one per distinct photon key; `film_of[k]` is variant k's film in the march.
-    let mut maps: Vec<(String, PhotonMap)> = Vec::new();
-    let mut ms_variants = Vec::new();
-    let mut film_of = Vec::new();
-    for integrator in variants {
-        if !integrator.multiple {
-            film_of.push(None);
-            continue;
-        }
-        let mut params = scene.params().clone();
-        params.integrator = integrator.clone();
-        let key = photon_map_key(&params);
-        let map = match maps.iter().position(|(k, _)| *k == key) {
-            Some(i) => i,
-            None => {
-                let s = scene.with_integrator(integrator.clone())?;
-                maps.push((key, build_photon_map(&s, control)?));
-                maps.len() - 1
-            }
-        };
-        film_of.push(Some(ms_variants.len()));
-        ms_variants.push(MsVariant {
-            map,
-            nused: integrator.nused,
-            maxdist: integrator.maxdist,
-            estimate: integrator.estimate,
-        });
-    }
-    let map_refs: Vec<&PhotonMap> = maps.iter().map(|(_, m)| m).collect();
-    let out = render_march(scene, &map_refs, &ms_variants, control)?;
-    let films = film_of
+    let plan = SharedMaps::build(scene, variants, control)?;
+    let map_refs: Vec<&PhotonMap> = plan.maps.iter().map(|(_, m)| m).collect();
+    let out = render_march(scene, &map_refs, &plan.ms_variants, control)?;
+    let films = plan
+        .film_of
         .iter()
         .map(|slot| match slot {
-            Some(i) => {
-                let map = &maps[ms_variants[*i].map].1;
-                SharedFilm {
-                    film: out.films[*i].clone(),
-                    photons: Some(map.stats().clone()),
-                    photon_seconds: map.stats().seconds,
-                    tree_seconds: map.build_seconds(),
-                    map_shared_by: ms_variants
-                        .iter()
-                        .filter(|v| v.map == ms_variants[*i].map)
-                        .count(),
-                    cache_error: out.cache_errors[*i].clone(),
-                    progressive: None,
-                }
-            }
-            None => {
-                let mut film = out.films[0].clone();
-                film.set_layer(
-                    Layer::Multiple,
-                    vec![glam::Vec3::ZERO; film.width() * film.height()],
-                );
-                SharedFilm {
-                    film,
-                    photons: None,
-                    photon_seconds: 0.0,
-                    tree_seconds: 0.0,
-                    map_shared_by: 0,
-                    cache_error: out.cache_errors[0].clone(),
-                    progressive: None,
-                }
-            }
+            Some(i) => plan.film_of_variant(*i, &out),
+            None => single_only_film(&out),
         })
         .collect();
     Ok(SharedRender {
         films,
-        photon_maps: maps.len(),
+        photon_maps: plan.maps.len(),
         render_seconds: out.stats.seconds,
     })
+}
+
+/// The reference render of `scene`, given to each of `variants` variants (the path
+/// tracer does not depend on what they vary).
+fn render_reference_shared(
+    scene: &Scene,
+    variants: usize,
+    control: &Control<'_>,
+) -> Result<SharedRender> {
+    let out = render(scene, control)?;
+    let film = SharedFilm {
+        film: out.film,
+        photons: None,
+        photon_seconds: 0.0,
+        tree_seconds: 0.0,
+        map_shared_by: 0,
+        cache_error: None,
+        progressive: None,
+    };
+    Ok(SharedRender {
+        films: vec![film; variants],
+        photon_maps: 0,
+        render_seconds: out.record.timings.render,
+    })
+}
+
+/// The photon maps of a shared march, one per distinct [`photon_map_key`], and which
+/// multiple-scattering variant of the march each requested setting is.
+struct SharedMaps {
+    maps: Vec<(String, PhotonMap)>,
+    ms_variants: Vec<MsVariant>,
+    /// `film_of[k]`: setting k's variant in the march (`None` without multiple scattering).
+    film_of: Vec<Option<usize>>,
+}
+
+impl SharedMaps {
+    /// Traces each distinct photon map `variants` ask for once.
+    fn build(scene: &Scene, variants: &[IntegratorParams], control: &Control<'_>) -> Result<Self> {
+        let mut shared = SharedMaps {
+            maps: Vec::new(),
+            ms_variants: Vec::new(),
+            film_of: Vec::new(),
+        };
+        for integrator in variants {
+            if !integrator.multiple {
+                shared.film_of.push(None);
+                continue;
+            }
+            let mut params = scene.params().clone();
+            params.integrator = integrator.clone();
+            let key = photon_map_key(&params);
+            let map = match shared.maps.iter().position(|(k, _)| *k == key) {
+                Some(i) => i,
+                None => {
+                    let s = scene.with_integrator(integrator.clone())?;
+                    shared.maps.push((key, build_photon_map(&s, control)?));
+                    shared.maps.len() - 1
+                }
+            };
+            shared.film_of.push(Some(shared.ms_variants.len()));
+            shared.ms_variants.push(MsVariant {
+                map,
+                nused: integrator.nused,
+                maxdist: integrator.maxdist,
+                estimate: integrator.estimate,
+            });
+        }
+        Ok(shared)
+    }
+
+    /// The film of the march's variant `i`, with its photon map's statistics.
+    fn film_of_variant(&self, i: usize, out: &MarchOutput) -> SharedFilm {
+        let map_index = self.ms_variants[i].map;
+        let map = &self.maps[map_index].1;
+        SharedFilm {
+            film: out.films[i].clone(),
+            photons: Some(map.stats().clone()),
+            photon_seconds: map.stats().seconds,
+            tree_seconds: map.build_seconds(),
+            map_shared_by: self
+                .ms_variants
+                .iter()
+                .filter(|v| v.map == map_index)
+                .count(),
+            cache_error: out.cache_errors[i].clone(),
+            progressive: None,
+        }
+    }
+}
+
+/// The film of a setting without multiple scattering: the march's first film with its
+/// multiple layer zeroed (the direct layers are the same for every variant).
+fn single_only_film(out: &MarchOutput) -> SharedFilm {
+    let mut film = out.films[0].clone();
+    film.set_layer(
+        Layer::Multiple,
+        vec![glam::Vec3::ZERO; film.width() * film.height()],
+    );
+    SharedFilm {
+        film,
+        photons: None,
+        photon_seconds: 0.0,
+        tree_seconds: 0.0,
+        map_shared_by: 0,
+        cache_error: out.cache_errors[0].clone(),
+        progressive: None,
+    }
 }
