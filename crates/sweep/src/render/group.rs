@@ -5,7 +5,7 @@
 use anyhow::Result;
 use glam::Vec3;
 use rayon::prelude::*;
-use volphot::{Film, Layer, Provenance, Scene, SearchPath, SharedFilm, write_png};
+use volphot::{Film, Layer, Provenance, Scene, SearchPath, SharedFilm, SharedRender, write_png};
 
 use super::Job;
 use super::scenes::Caches;
@@ -80,41 +80,66 @@ fn progressive_reference(jobs: &[(&Job, CellLock)], out: &OutputDir) -> Result<O
     Ok(Some(displayed(&film, true, emission)))
 }
 
+/// The cells of a group this process renders, locked, and what became of the others.
+struct Claimed<'g> {
+    /// The cells to render, each with its lock (held until the cell is written).
+    jobs: Vec<(&'g Job, CellLock)>,
+    failures: Vec<(usize, String)>,
+    busy: usize,
+    done_elsewhere: usize,
+}
+
+impl<'g> Claimed<'g> {
+    /// Locks each cell of `group` that no other process is rendering or has finished
+    /// (failing the ones [`FAIL_CELLS_ENV`] names).
+    fn lock(group: &'g [Job], ctx: &GroupContext<'_>) -> Result<Self> {
+        let mut claimed = Claimed {
+            jobs: Vec::new(),
+            failures: Vec::new(),
+            busy: 0,
+            done_elsewhere: 0,
+        };
+        for job in group {
+            if ctx.fail_on.contains(&job.spec.index) {
+                let why = format!("failure injected by {FAIL_CELLS_ENV}");
+                claimed.failures.push((job.spec.index, why));
+                continue;
+            }
+            let Some(lock) = try_lock_cell(ctx.out, &job.hash)? else {
+                claimed.busy += 1;
+                continue;
+            };
+            if is_done(&ctx.out.cell(&job.hash)) {
+                claimed.done_elsewhere += 1;
+            } else {
+                claimed.jobs.push((job, lock));
+            }
+        }
+        Ok(claimed)
+    }
+
+    /// The outcome of rendering none of the claimed cells.
+    fn nothing_rendered(self) -> GroupOutcome {
+        GroupOutcome {
+            failures: self.failures,
+            busy: self.busy,
+            done_elsewhere: self.done_elsewhere,
+            ..Default::default()
+        }
+    }
+}
+
 /// Renders one march group.
 pub(crate) fn render_group(
     group: &[Job],
     ctx: &GroupContext<'_>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<GroupOutcome> {
-    let mut failures = Vec::new();
     // Per-cell locks: skip cells another process is rendering right now.
-    let mut jobs: Vec<(&Job, CellLock)> = Vec::new();
-    let (mut busy, mut done_elsewhere) = (0, 0);
-    for job in group {
-        if ctx.fail_on.contains(&job.spec.index) {
-            failures.push((
-                job.spec.index,
-                format!("failure injected by {FAIL_CELLS_ENV}"),
-            ));
-            continue;
-        }
-        let Some(lock) = try_lock_cell(ctx.out, &job.hash)? else {
-            busy += 1;
-            continue;
-        };
-        if is_done(&ctx.out.cell(&job.hash)) {
-            done_elsewhere += 1;
-        } else {
-            jobs.push((job, lock));
-        }
-    }
+    let mut claimed = Claimed::lock(group, ctx)?;
+    let jobs = &claimed.jobs;
     if jobs.is_empty() {
-        return Ok(GroupOutcome {
-            failures,
-            busy,
-            done_elsewhere,
-            ..Default::default()
-        });
+        return Ok(claimed.nothing_rendered());
     }
     // The group's scene: any cell's (they differ only in multiple-scattering settings),
     // with multiple scattering on when any cell wants it.
@@ -135,16 +160,32 @@ pub(crate) fn render_group(
             job.spec.index
         );
     }
-    let reference = progressive_reference(&jobs, ctx.out)?;
+    let reference = progressive_reference(jobs, ctx.out)?;
     let control = ctx.control(progress);
     let control = match &reference {
         Some(image) => control.with_reference(image),
         None => control,
     };
     let shared = volphot::render_shared(&scene, &integrators, &control)?;
-    // The per-cell locks in `jobs` are held until the cells are written. Each cell's
-    // metrics and files are its own and single-threaded, so the cells are written in
-    // parallel (a 512² cell takes seconds; a group of 54 took minutes one by one).
+    let (rendered, failed) = write_cells(jobs, &shared, &scene, ctx.out);
+    claimed.failures.extend(failed);
+    Ok(GroupOutcome {
+        rendered,
+        photon_maps: shared.photon_maps,
+        ..claimed.nothing_rendered()
+    })
+}
+
+/// Writes the cells of a shared render: how many were written, and the ones that failed.
+///
+/// Each cell's metrics and files are its own and single-threaded, so the cells are
+/// written in parallel (a 512² cell takes seconds; a group of 54 took minutes one by one).
+fn write_cells(
+    jobs: &[(&Job, CellLock)],
+    shared: &SharedRender,
+    scene: &Scene,
+    out: &OutputDir,
+) -> (usize, Vec<(usize, String)>) {
     let written: Vec<Result<()>> = jobs
         .par_iter()
         .zip(shared.films.par_iter())
@@ -157,23 +198,18 @@ pub(crate) fn render_group(
                 march_shared_by: jobs.len(),
                 map_shared_by: result.map_shared_by,
             };
-            write_cell(job, &scene, result, timings, ctx.out)
+            write_cell(job, scene, result, timings, out)
         })
         .collect();
     let mut rendered = 0;
+    let mut failures = Vec::new();
     for ((job, _lock), outcome) in jobs.iter().zip(written) {
         match outcome {
             Ok(()) => rendered += 1,
             Err(e) => failures.push((job.spec.index, format!("{e:#}"))),
         }
     }
-    Ok(GroupOutcome {
-        rendered,
-        busy,
-        done_elsewhere,
-        photon_maps: shared.photon_maps,
-        failures,
-    })
+    (rendered, failures)
 }
 
 /// Writes a finished cell: film, PNGs, metrics, record.
