@@ -4,12 +4,43 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use volphot::{Layer, Method, Scene, SearchPath, load_params, locate_error, write_png};
+use volphot::{
+    Layer, Method, RenderOutput, Scene, SceneParams, SearchPath, load_params, locate_error,
+    write_png,
+};
 
 use crate::cli::{IntegratorChoice, RenderArgs};
 
 /// Renders the scene and writes its files into the output folder.
 pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode> {
+    let params = scene_params(args)?;
+    let output = render_scene(args, &params)?;
+    anyhow::ensure!(output.film.is_finite(), "render produced non-finite values");
+    let stem = args
+        .scene
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "render".into());
+    write_outputs(&args.output, &stem, &output, params.film.exposure)?;
+    let film = &output.film;
+    let t = &output.record.timings;
+    eprintln!(
+        "{stem}: {}×{} in {:.2} s (photons {:.2} s, tree {:.2} s, render {:.2} s); mean radiance single {:.4}, multiple {:.4} → {}",
+        film.width(),
+        film.height(),
+        t.total,
+        t.photon_tracing,
+        t.tree_build,
+        t.render,
+        film.mean(Layer::Single),
+        film.mean(Layer::Multiple),
+        args.output.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The scene file's parameters with the command line's overrides applied.
+fn scene_params(args: &RenderArgs) -> Result<SceneParams> {
     let (mut params, _) = load_params(&args.scene)?;
     if let Some(seed) = args.seed {
         params.integrator.seed = seed;
@@ -29,10 +60,16 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode> {
     if let Some(resolution) = args.resolution {
         params.camera.resolution = resolution;
     }
+    Ok(params)
+}
+
+/// Builds the scene (errors located in the scene file) and renders it on the asked
+/// threads, with a progress bar over the image rows.
+fn render_scene(args: &RenderArgs, params: &SceneParams) -> Result<RenderOutput> {
     let pool = super::thread_pool(args.threads)?;
     let base = args.scene.parent().unwrap_or(Path::new("."));
-    let output = pool.install(|| -> Result<_> {
-        let scene = Scene::from_params(&params, base, &SearchPath::from_env()).map_err(|e| {
+    pool.install(|| -> Result<_> {
+        let scene = Scene::from_params(params, base, &SearchPath::from_env()).map_err(|e| {
             locate_error(
                 e,
                 &std::fs::read_to_string(&args.scene).unwrap_or_default(),
@@ -50,46 +87,31 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode> {
         let out = volphot::render(&scene, &volphot::Control::new(&progress))?;
         bar.finish_and_clear();
         Ok(out)
-    })?;
-    anyhow::ensure!(output.film.is_finite(), "render produced non-finite values");
-    let stem = args
-        .scene
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "render".into());
-    std::fs::create_dir_all(&args.output)
-        .with_context(|| format!("creating {}", args.output.display()))?;
+    })
+}
+
+/// Writes `STEM.exr` (every layer), `STEM.pfm`, `STEM.png`, `STEM_single.png` and the
+/// record `STEM.json` into `folder`.
+fn write_outputs(folder: &Path, stem: &str, output: &RenderOutput, exposure: f32) -> Result<()> {
+    std::fs::create_dir_all(folder).with_context(|| format!("creating {}", folder.display()))?;
     let film = &output.film;
     let (w, h) = (film.width(), film.height());
-    let exposure = params.film.exposure;
-    film.write_exr(&args.output.join(format!("{stem}.exr")))?;
-    film.write_pfm(&args.output.join(format!("{stem}.pfm")))?;
+    film.write_exr(&folder.join(format!("{stem}.exr")))?;
+    film.write_pfm(&folder.join(format!("{stem}.pfm")))?;
     write_png(
-        &args.output.join(format!("{stem}.png")),
+        &folder.join(format!("{stem}.png")),
         w,
         h,
         &film.total(),
         exposure,
     )?;
     write_png(
-        &args.output.join(format!("{stem}_single.png")),
+        &folder.join(format!("{stem}_single.png")),
         w,
         h,
         film.layer(Layer::Single),
         exposure,
     )?;
     let json = serde_json::to_string_pretty(&output.record)?;
-    volphot::write_atomic(&args.output.join(format!("{stem}.json")), json.as_bytes())?;
-    let t = &output.record.timings;
-    eprintln!(
-        "{stem}: {w}×{h} in {:.2} s (photons {:.2} s, tree {:.2} s, render {:.2} s); mean radiance single {:.4}, multiple {:.4} → {}",
-        t.total,
-        t.photon_tracing,
-        t.tree_build,
-        t.render,
-        film.mean(Layer::Single),
-        film.mean(Layer::Multiple),
-        args.output.display()
-    );
-    Ok(ExitCode::SUCCESS)
+    volphot::write_atomic(&folder.join(format!("{stem}.json")), json.as_bytes()).map_err(Into::into)
 }
