@@ -25,8 +25,10 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
-use super::{LightKind, Scene};
+use super::{LightKind, Scene, SceneParams};
 use crate::error::{Error, Result};
+use crate::math::Aabb;
+use crate::medium::Medium;
 use crate::util::write_atomic;
 use crate::volume::Reconstruction;
 
@@ -133,11 +135,21 @@ fn triple(v: [f32; 3]) -> String {
 
 /// The scene as Mitsuba 3 XML.
 fn scene_xml(scene: &Scene, grid_file: &str) -> String {
-    let p = scene.params();
-    let medium = scene.medium();
-    let bounds = medium.bounds();
-    let (centre, half) = (bounds.center(), bounds.extent() * 0.5);
     let mut x = String::new();
+    integrator_xml(&mut x, scene.params());
+    sensor_xml(&mut x, scene);
+    medium_xml(&mut x, scene.medium(), grid_file);
+    bounding_cube_xml(&mut x, scene.medium().bounds());
+    for light in scene.lights() {
+        emitter_xml(&mut x, &light.params());
+    }
+    let _ = writeln!(x, "</scene>");
+    x
+}
+
+/// The scene's opening, its defaults (`spp`, `max_depth`, `seed`) and the `volpath`
+/// integrator.
+fn integrator_xml(x: &mut String, p: &SceneParams) {
     let _ = writeln!(x, "<scene version=\"3.0.0\">");
     let _ = writeln!(
         x,
@@ -161,7 +173,12 @@ fn scene_xml(scene: &Scene, grid_file: &str) -> String {
         "        <integer name=\"max_depth\" value=\"$max_depth\"/>"
     );
     let _ = writeln!(x, "    </integrator>");
-    sensor_xml(&mut x, scene);
+}
+
+/// The heterogeneous medium: the σt grid file over the volume's box, scaled by
+/// `sigma_t_base`, with the albedo and phase function.
+fn medium_xml(x: &mut String, medium: &Medium, grid_file: &str) {
+    let bounds = medium.bounds();
     let _ = writeln!(x, "    <medium type=\"heterogeneous\" id=\"medium\">");
     let _ = writeln!(x, "        <volume type=\"gridvolume\" name=\"sigma_t\">");
     let _ = writeln!(
@@ -211,6 +228,11 @@ fn scene_xml(scene: &Scene, grid_file: &str) -> String {
         }
     }
     let _ = writeln!(x, "    </medium>");
+}
+
+/// The cube that holds the medium: a null BSDF over the volume's box.
+fn bounding_cube_xml(x: &mut String, bounds: Aabb) {
+    let (centre, half) = (bounds.center(), bounds.extent() * 0.5);
     let _ = writeln!(x, "    <shape type=\"cube\">");
     let _ = writeln!(x, "        <transform name=\"to_world\">");
     let _ = writeln!(
@@ -227,11 +249,6 @@ fn scene_xml(scene: &Scene, grid_file: &str) -> String {
     let _ = writeln!(x, "        <bsdf type=\"null\"/>");
     let _ = writeln!(x, "        <ref name=\"interior\" id=\"medium\"/>");
     let _ = writeln!(x, "    </shape>");
-    for light in scene.lights() {
-        emitter_xml(&mut x, &light.params());
-    }
-    let _ = writeln!(x, "</scene>");
-    x
 }
 
 fn sensor_xml(x: &mut String, scene: &Scene) {
