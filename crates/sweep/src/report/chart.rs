@@ -6,6 +6,7 @@ use std::sync::Once;
 
 use anyhow::Result;
 use plotters::coord::Shift;
+use plotters::coord::ranged1d::ValueFormatter;
 use plotters::prelude::*;
 
 /// One line of a plot.
@@ -106,11 +107,9 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plot: &Plot) -> Resul
 where
     DB::ErrorType: 'static,
 {
-    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| {
-        anyhow::anyhow!("drawing plot `{}`: {e:?}", plot.title)
-    };
+    let err = drawing_error::<DB>(plot);
     // <<Axis ranges and tick positions>>
-    root.fill(&WHITE).map_err(err)?;
+    root.fill(&WHITE).map_err(&err)?;
     let xs = plot
         .series
         .iter()
@@ -133,88 +132,131 @@ where
         .margin(14)
         .x_label_area_size(46)
         .y_label_area_size(70);
-    // <<Mesh, one line and point series per series, legend>>: a macro because each
-    // combination of linear and log axes is a different plotters coordinate type.
-    let mut hotspots = Vec::new();
-    macro_rules! finish {
-        ($chart:expr) => {{
-            let mut chart = $chart;
-            chart
-                .configure_mesh()
-                .x_desc(plot.x_label.as_str())
-                .x_label_formatter(&|v| tick_label(*v))
-                .y_desc(plot.y_label.as_str())
-                .label_style(("sans-serif", 14))
-                .axis_desc_style(("sans-serif", 16))
-                .draw()
-                .map_err(err)?;
-            for (i, s) in plot.series.iter().enumerate() {
-                let colour = Palette99::pick(i).mix(0.95);
-                let drawn = drawable(plot, s);
-                hotspots.extend(drawn.iter().map(|(point, p)| Hotspot {
-                    series: i,
-                    point: *point,
-                    at: chart.backend_coord(p),
-                }));
-                let pts: Vec<(f64, f64)> = drawn.into_iter().map(|(_, p)| p).collect();
-                if !s.points_only {
-                    chart
-                        .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
-                        .map_err(err)?
-                        .label(s.name.clone())
-                        .legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-                        });
-                }
-                let points = chart
-                    .draw_series(PointSeries::of_element(
-                        pts.iter().copied(),
-                        4,
-                        colour.filled(),
-                        &|c, s, st| EmptyElement::at(c) + Circle::new((0, 0), s, st),
-                    ))
-                    .map_err(err)?;
-                if s.points_only {
-                    points
-                        .label(s.name.clone())
-                        .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
-                }
-            }
-            if plot.series.len() > 1 || !plot.series.first().is_some_and(|s| s.name.is_empty()) {
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::UpperRight)
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .label_font(("sans-serif", 14))
-                    .draw()
-                    .map_err(err)?;
-            }
-        }};
-    }
-    // <<One coordinate system per axis scale>>
-    match (plot.log_x, plot.log_y) {
-        (false, false) => finish!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err)?),
-        (true, false) => finish!(
-            builder
-                .build_cartesian_2d((x0..x1).log_scale().with_key_points(ticks), y0..y1)
-                .map_err(err)?
-        ),
-        (false, true) => finish!(
-            builder
-                .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
-                .map_err(err)?
-        ),
-        (true, true) => finish!(
-            builder
-                .build_cartesian_2d(
-                    (x0..x1).log_scale().with_key_points(ticks),
-                    (y0..y1).log_scale()
-                )
-                .map_err(err)?
-        ),
-    }
+    // <<One coordinate system per axis scale>>: each combination of linear and log axes
+    // is a different plotters coordinate type.
+    let hotspots = match (plot.log_x, plot.log_y) {
+        (false, false) => finish(builder.build_cartesian_2d(x0..x1, y0..y1), plot)?,
+        (true, false) => finish(
+            builder.build_cartesian_2d((x0..x1).log_scale().with_key_points(ticks), y0..y1),
+            plot,
+        )?,
+        (false, true) => finish(
+            builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale()),
+            plot,
+        )?,
+        (true, true) => finish(
+            builder.build_cartesian_2d(
+                (x0..x1).log_scale().with_key_points(ticks),
+                (y0..y1).log_scale(),
+            ),
+            plot,
+        )?,
+    };
     root.present().map_err(err)?;
+    Ok(hotspots)
+}
+
+/// A plotters error as one that names the plot.
+fn drawing_error<DB: DrawingBackend>(
+    plot: &Plot,
+) -> impl Fn(DrawingAreaErrorKind<DB::ErrorType>) -> anyhow::Error + '_
+where
+    DB::ErrorType: 'static,
+{
+    move |e| anyhow::anyhow!("drawing plot `{}`: {e:?}", plot.title)
+}
+
+/// A chart as `ChartBuilder::build_cartesian_2d` returns it.
+type BuiltChart<'a, DB, X, Y> = Result<
+    ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>,
+>;
+
+/// Draws the mesh, every series and the legend into a built chart; returns where the
+/// points landed.
+fn finish<'a, DB, X, Y>(chart: BuiltChart<'a, DB, X, Y>, plot: &Plot) -> Result<Vec<Hotspot>>
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let err = drawing_error::<DB>(plot);
+    let mut chart = chart.map_err(&err)?;
+    chart
+        .configure_mesh()
+        .x_desc(plot.x_label.as_str())
+        .x_label_formatter(&|v| tick_label(*v))
+        .y_desc(plot.y_label.as_str())
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()
+        .map_err(&err)?;
+    let mut hotspots = Vec::new();
+    for (i, s) in plot.series.iter().enumerate() {
+        hotspots.extend(draw_series(&mut chart, plot, i, s)?);
+    }
+    if plot.series.len() > 1 || !plot.series.first().is_some_and(|s| s.name.is_empty()) {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .draw()
+            .map_err(&err)?;
+    }
+    Ok(hotspots)
+}
+
+/// Draws series `i` (a line unless `points_only`, and its points) with its legend entry;
+/// returns where its points landed.
+fn draw_series<'a, DB, X, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    plot: &Plot,
+    i: usize,
+    s: &Series,
+) -> Result<Vec<Hotspot>>
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    let err = drawing_error::<DB>(plot);
+    let colour = Palette99::pick(i).mix(0.95);
+    let drawn = drawable(plot, s);
+    let hotspots = drawn
+        .iter()
+        .map(|(point, p)| Hotspot {
+            series: i,
+            point: *point,
+            at: chart.backend_coord(p),
+        })
+        .collect();
+    let pts: Vec<(f64, f64)> = drawn.into_iter().map(|(_, p)| p).collect();
+    if !s.points_only {
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(2)))
+            .map_err(&err)?
+            .label(s.name.clone())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+            });
+    }
+    let points = chart
+        .draw_series(PointSeries::of_element(
+            pts.iter().copied(),
+            4,
+            colour.filled(),
+            &|c, s, st| EmptyElement::at(c) + Circle::new((0, 0), s, st),
+        ))
+        .map_err(&err)?;
+    if s.points_only {
+        points
+            .label(s.name.clone())
+            .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+    }
     Ok(hotspots)
 }
 
