@@ -295,6 +295,22 @@ impl IntegratorParams {
 
     /// Validates ranges; errors name the key (without the `integrator.` prefix).
     pub fn validate(&self) -> Result<()> {
+        self.validate_photons()?;
+        self.validate_march()?;
+        self.validate_samples()?;
+        self.validate_iterations()?;
+        if !(self.single || self.multiple || self.emission) {
+            return Err(Error::parameter(
+                "single",
+                false,
+                "at least one of `single`, `multiple`, `emission` set to true",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The photon map and its gathers: `volume_photons`, `nused`, `maxdist`.
+    fn validate_photons(&self) -> Result<()> {
         if self.volume_photons > 100_000_000 {
             return Err(Error::parameter(
                 "volume_photons",
@@ -323,6 +339,12 @@ impl IntegratorParams {
                 "a radius in (0, 10] world units",
             ));
         }
+        Ok(())
+    }
+
+    /// The eye march and what spares it work: `stepsize`, `termination`, thinning, the
+    /// shadow fill's tolerance and the caches.
+    fn validate_march(&self) -> Result<()> {
         if !(self.stepsize.is_finite() && self.stepsize >= 1e-6 && self.stepsize <= 1.0) {
             return Err(Error::parameter(
                 "stepsize",
@@ -333,20 +355,13 @@ impl IntegratorParams {
         check_range("termination", self.termination as f64, 0.0, 0.5)?;
         check_range("thin_below", self.thin_below as f64, 0.0, 1.0)?;
         check_range("shadow_tolerance", self.shadow_tolerance as f64, 0.0, 1.0)?;
-        if self.shadow_cache != 0 && !(8..=1024).contains(&self.shadow_cache) {
-            return Err(Error::parameter(
-                "shadow_cache",
-                self.shadow_cache,
-                "0 (off) or a resolution in [8, 1024]",
-            ));
-        }
-        if self.ms_cache != 0 && !(8..=1024).contains(&self.ms_cache) {
-            return Err(Error::parameter(
-                "ms_cache",
-                self.ms_cache,
-                "0 (off) or a resolution in [8, 1024]",
-            ));
-        }
+        check_cache_resolution("shadow_cache", self.shadow_cache)?;
+        check_cache_resolution("ms_cache", self.ms_cache)?;
+        Ok(())
+    }
+
+    /// Samples per pixel: `spp` (eye rays) and `reference_spp` (paths).
+    fn validate_samples(&self) -> Result<()> {
         if !(1..=65_536).contains(&self.spp) {
             return Err(Error::parameter(
                 "spp",
@@ -361,6 +376,11 @@ impl IntegratorParams {
                 "an integer in [1, 1048576]",
             ));
         }
+        Ok(())
+    }
+
+    /// The progressive and beam estimators' iterations, radius shrink and stopping rules.
+    fn validate_iterations(&self) -> Result<()> {
         if !(self.alpha > 0.0 && self.alpha < 1.0) {
             return Err(Error::parameter(
                 "alpha",
@@ -394,15 +414,20 @@ impl IntegratorParams {
         if self.estimator == MsEstimator::Beam {
             self.validate_beam()?;
         }
-        if !(self.single || self.multiple || self.emission) {
-            return Err(Error::parameter(
-                "single",
-                false,
-                "at least one of `single`, `multiple`, `emission` set to true",
-            ));
-        }
         Ok(())
     }
+}
+
+/// A cache resolution: 0 (off) or a lattice of 8 to 1024 nodes a side.
+fn check_cache_resolution(key: &str, resolution: u32) -> Result<()> {
+    if resolution != 0 && !(8..=1024).contains(&resolution) {
+        return Err(Error::parameter(
+            key,
+            resolution,
+            "0 (off) or a resolution in [8, 1024]",
+        ));
+    }
+    Ok(())
 }
 
 /// `[film]` as written in a scene file.
