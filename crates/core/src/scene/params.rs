@@ -218,7 +218,28 @@ enum VolumeChoice<'a> {
     Phantom(&'a PhantomParams),
 }
 
+/// Which source the `[volume]` table names, once its keys are checked to fit that source.
 fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
+    check_one_source(v)?;
+    check_dicom_keys(v)?;
+    check_raw_keys(v)?;
+    check_placement_and_values(v)?;
+    Ok(match (&v.dataset, &v.file, &v.phantom, &v.dicom) {
+        (Some(d), _, _, _) => VolumeChoice::Dataset(d),
+        (_, Some(f), _, _) => VolumeChoice::File(f),
+        (_, _, Some(p), _) => VolumeChoice::Phantom(p),
+        (_, _, _, Some(d)) => VolumeChoice::Dicom(d),
+        _ => unreachable!("exactly one source checked above"),
+    })
+}
+
+/// The error for `key` given where it does not apply.
+fn given_without_use(key: impl Into<String>, expected: &str) -> Error {
+    Error::parameter(key, "(given)", expected)
+}
+
+/// Exactly one of `dataset`, `file`, `dicom`, `phantom`.
+fn check_one_source(v: &VolumeParams) -> Result<()> {
     let given = [
         v.dataset.is_some(),
         v.file.is_some(),
@@ -235,6 +256,11 @@ fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
             "exactly one of `dataset`, `file`, `dicom`, `phantom`",
         ));
     }
+    Ok(())
+}
+
+/// `resample` and `series` only with `dicom`.
+fn check_dicom_keys(v: &VolumeParams) -> Result<()> {
     if v.resample && v.dicom.is_none() {
         return Err(Error::parameter(
             "volume.resample",
@@ -243,12 +269,17 @@ fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
         ));
     }
     if v.series.is_some() && v.dicom.is_none() {
-        return Err(Error::parameter(
+        return Err(given_without_use(
             "volume.series",
-            "(given)",
             "only with `dicom` (it picks a SeriesInstanceUID)",
         ));
     }
+    Ok(())
+}
+
+/// The layout keys (`dims`, `voxel`, `byte_order`, `header_bytes`) only with a headerless
+/// RAW file, which needs at least `dims` and `voxel`.
+fn check_raw_keys(v: &VolumeParams) -> Result<()> {
     let raw_keys = [
         ("dims", v.dims.is_some()),
         ("voxel", v.voxel.is_some()),
@@ -267,29 +298,32 @@ fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
     });
     for (key, present) in raw_keys {
         if present && !is_raw_file {
-            return Err(Error::parameter(
+            return Err(given_without_use(
                 format!("volume.{key}"),
-                "(given)",
                 "only with a headerless RAW `file` (datasets and header files carry their own layout)",
             ));
         }
     }
-    if is_raw_file {
-        if v.dims.is_none() {
-            return Err(Error::parameter(
-                "volume.dims",
-                "(missing)",
-                "[nx, ny, nz] for a RAW file",
-            ));
-        }
-        if v.voxel.is_none() {
-            return Err(Error::parameter(
-                "volume.voxel",
-                "(missing)",
-                "u8, i8, u16, i16 or f32 for a RAW file",
-            ));
-        }
+    if is_raw_file && v.dims.is_none() {
+        return Err(Error::parameter(
+            "volume.dims",
+            "(missing)",
+            "[nx, ny, nz] for a RAW file",
+        ));
     }
+    if is_raw_file && v.voxel.is_none() {
+        return Err(Error::parameter(
+            "volume.voxel",
+            "(missing)",
+            "u8, i8, u16, i16 or f32 for a RAW file",
+        ));
+    }
+    Ok(())
+}
+
+/// `box` or `spacing`, not both; `window` only with its normalisation, `sha256` only with
+/// a `file`, no normalisation for phantoms.
+fn check_placement_and_values(v: &VolumeParams) -> Result<()> {
     if v.bounds.is_some() && v.spacing.is_some() {
         return Err(Error::parameter(
             "volume.spacing",
@@ -298,33 +332,21 @@ fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
         ));
     }
     if v.window.is_some() && v.normalize != Some(NormalizeKind::Window) {
-        return Err(Error::parameter(
+        return Err(given_without_use(
             "volume.window",
-            "(given)",
             "only with normalize = \"window\"",
         ));
     }
     if v.sha256.is_some() && v.file.is_none() {
-        return Err(Error::parameter(
-            "volume.sha256",
-            "(given)",
-            "only with `file`",
-        ));
+        return Err(given_without_use("volume.sha256", "only with `file`"));
     }
     if v.phantom.is_some() && v.normalize.is_some() {
-        return Err(Error::parameter(
+        return Err(given_without_use(
             "volume.normalize",
-            "(given)",
             "no normalisation for phantoms (they are already in [0, 1])",
         ));
     }
-    Ok(match (&v.dataset, &v.file, &v.phantom, &v.dicom) {
-        (Some(d), _, _, _) => VolumeChoice::Dataset(d),
-        (_, Some(f), _, _) => VolumeChoice::File(f),
-        (_, _, Some(p), _) => VolumeChoice::Phantom(p),
-        (_, _, _, Some(d)) => VolumeChoice::Dicom(d),
-        _ => unreachable!("exactly one source checked above"),
-    })
+    Ok(())
 }
 
 fn normalization(v: &VolumeParams) -> Result<Option<Normalization>> {
