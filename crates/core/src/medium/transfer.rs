@@ -144,6 +144,23 @@ impl Default for TransferParams {
     }
 }
 
+impl TransferParams {
+    /// Whether any key of the colour transfer function is given (`preset`, `opacity`,
+    /// `colour`, `unit_distance`, `intercept`, or a 3D Slicer `.vp`/`.vp.json` file).
+    fn has_colour_keys(&self) -> bool {
+        let slicer_file = self.file.as_ref().is_some_and(|f| {
+            let name = f.to_string_lossy().to_ascii_lowercase();
+            name.ends_with(".vp") || name.ends_with(".vp.json")
+        });
+        self.preset.is_some()
+            || self.opacity.is_some()
+            || self.colour.is_some()
+            || self.unit_distance.is_some()
+            || self.intercept.is_some()
+            || slicer_file
+    }
+}
+
 impl TransferFunction {
     /// Builds a transfer function from its parameters. `base` resolves relative file paths;
     /// `normalization` converts a raw threshold to the normalised scale.
@@ -152,23 +169,7 @@ impl TransferFunction {
         base: &Path,
         normalization: &NormalizationRecord,
     ) -> Result<Self> {
-        let unexpected = |key: &str| -> Result<()> {
-            Err(Error::parameter(
-                key,
-                "(given)",
-                format!("no `{key}` with kind = \"{}\"", params.kind.name()),
-            ))
-        };
-        let slicer_file = params.file.as_ref().is_some_and(|f| {
-            let name = f.to_string_lossy().to_ascii_lowercase();
-            name.ends_with(".vp") || name.ends_with(".vp.json")
-        });
-        let colour_keys = params.preset.is_some()
-            || params.opacity.is_some()
-            || params.colour.is_some()
-            || params.unit_distance.is_some()
-            || params.intercept.is_some()
-            || slicer_file;
+        let colour_keys = params.has_colour_keys();
         if params.kind == TransferKind::Colour
             || (params.kind == TransferKind::Identity && colour_keys)
         {
@@ -183,18 +184,7 @@ impl TransferFunction {
         }
         match params.kind {
             TransferKind::Colour => unreachable!("handled above"),
-            TransferKind::Identity => {
-                if params.file.is_some() {
-                    unexpected("file")?;
-                }
-                if params.points.is_some() {
-                    unexpected("points")?;
-                }
-                if params.threshold.is_some() {
-                    unexpected("threshold")?;
-                }
-                Ok(TransferFunction::Identity)
-            }
+            TransferKind::Identity => Self::create_identity(params),
             TransferKind::Pgm => {
                 let file = params.file.as_ref().ok_or_else(|| {
                     Error::parameter("file", "(missing)", "the path of a 256×256 PGM image")
@@ -208,33 +198,57 @@ impl TransferFunction {
                 })?;
                 Self::points(points)
             }
-            TransferKind::Threshold => {
-                let raw = params.threshold.ok_or_else(|| {
-                    Error::parameter("threshold", "(missing)", "a raw voxel value")
-                })?;
-                if !raw.is_finite() {
-                    return Err(Error::parameter(
-                        "threshold",
-                        raw,
-                        "a finite raw voxel value",
-                    ));
-                }
-                let lo = normalization.raw_lo;
-                let hi = normalization.raw_hi;
-                if raw > normalization.data_max {
-                    return Err(Error::parameter(
-                        "threshold",
-                        raw,
-                        format!(
-                            "a raw value <= the data's maximum {} (a larger threshold blanks the whole volume; see the head16 note in the dataset registry)",
-                            normalization.data_max
-                        ),
-                    ));
-                }
-                let normalized = ((raw - lo) / (hi - lo)).clamp(0.0, 1.0) as f32;
-                Ok(TransferFunction::Threshold { normalized, raw })
-            }
+            TransferKind::Threshold => Self::create_threshold(params, normalization),
         }
+    }
+
+    /// `kind = "identity"`, which takes no `file`, `points` or `threshold`.
+    fn create_identity(params: &TransferParams) -> Result<Self> {
+        let given = [
+            ("file", params.file.is_some()),
+            ("points", params.points.is_some()),
+            ("threshold", params.threshold.is_some()),
+        ];
+        if let Some((key, _)) = given.into_iter().find(|(_, present)| *present) {
+            return Err(Error::parameter(
+                key,
+                "(given)",
+                format!("no `{key}` with kind = \"{}\"", params.kind.name()),
+            ));
+        }
+        Ok(TransferFunction::Identity)
+    }
+
+    /// `kind = "threshold"`: a raw voxel value, at most the data's maximum, on the
+    /// normalised scale.
+    fn create_threshold(
+        params: &TransferParams,
+        normalization: &NormalizationRecord,
+    ) -> Result<Self> {
+        let raw = params
+            .threshold
+            .ok_or_else(|| Error::parameter("threshold", "(missing)", "a raw voxel value"))?;
+        if !raw.is_finite() {
+            return Err(Error::parameter(
+                "threshold",
+                raw,
+                "a finite raw voxel value",
+            ));
+        }
+        let lo = normalization.raw_lo;
+        let hi = normalization.raw_hi;
+        if raw > normalization.data_max {
+            return Err(Error::parameter(
+                "threshold",
+                raw,
+                format!(
+                    "a raw value <= the data's maximum {} (a larger threshold blanks the whole volume; see the head16 note in the dataset registry)",
+                    normalization.data_max
+                ),
+            ));
+        }
+        let normalized = ((raw - lo) / (hi - lo)).clamp(0.0, 1.0) as f32;
+        Ok(TransferFunction::Threshold { normalized, raw })
     }
 
     /// `kind = "colour"`: exactly one of `preset`, `file` (`.vp`, `.vp.json`) or the
@@ -459,84 +473,26 @@ pub struct Pgm {
 /// Parses a P2 (ASCII) or P5 (binary, 8- or 16-bit) PGM. Errors are plain messages; the
 /// caller attaches the path.
 pub fn parse_pgm(bytes: &[u8]) -> std::result::Result<Pgm, String> {
-    let mut pos = 0usize;
-    // Reads the next whitespace-separated header token, skipping `#` comments.
-    let token = |pos: &mut usize| -> std::result::Result<String, String> {
-        loop {
-            while *pos < bytes.len() && bytes[*pos].is_ascii_whitespace() {
-                *pos += 1;
-            }
-            if *pos < bytes.len() && bytes[*pos] == b'#' {
-                while *pos < bytes.len() && bytes[*pos] != b'\n' {
-                    *pos += 1;
-                }
-                continue;
-            }
-            break;
-        }
-        let start = *pos;
-        while *pos < bytes.len() && !bytes[*pos].is_ascii_whitespace() && bytes[*pos] != b'#' {
-            *pos += 1;
-        }
-        if start == *pos {
-            return Err("unexpected end of PGM header".into());
-        }
-        Ok(String::from_utf8_lossy(&bytes[start..*pos]).into_owned())
-    };
-    let magic = token(&mut pos)?;
+    let mut reader = PgmReader { bytes, pos: 0 };
+    let magic = reader.token()?;
     if magic != "P2" && magic != "P5" {
         return Err(format!(
             "not a greyscale PGM: magic is {magic:?}, expected \"P2\" or \"P5\""
         ));
     }
-    let number = |name: &str, pos: &mut usize| -> std::result::Result<u32, String> {
-        let t = token(pos)?;
-        t.parse::<u32>()
-            .map_err(|_| format!("PGM {name} is {t:?}, expected a positive integer"))
-    };
-    let width = number("width", &mut pos)? as usize;
-    let height = number("height", &mut pos)? as usize;
-    let maxval = number("maxval", &mut pos)?;
+    let width = reader.number("width")? as usize;
+    let height = reader.number("height")? as usize;
+    let maxval = reader.number("maxval")?;
     if width == 0 || height == 0 || width > 65536 || height > 65536 {
         return Err(format!("PGM size {width}×{height} is not usable"));
     }
     if maxval == 0 || maxval > 65535 {
         return Err(format!("PGM maxval {maxval}, expected 1..=65535"));
     }
-    let count = width * height;
     let pixels = if magic == "P5" {
-        // Exactly one whitespace byte separates the header from the raster.
-        pos += 1;
-        let bpp = if maxval > 255 { 2 } else { 1 };
-        let need = count * bpp;
-        let have = bytes.len().saturating_sub(pos);
-        if have < need {
-            return Err(format!(
-                "PGM raster has {have} bytes, expected {need} for {width}×{height} at {} byte(s) per pixel",
-                bpp
-            ));
-        }
-        let raster = &bytes[pos..pos + need];
-        if bpp == 1 {
-            raster.iter().map(|&b| b as u32).collect()
-        } else {
-            raster
-                .chunks_exact(2)
-                .map(|c| u16::from_be_bytes([c[0], c[1]]) as u32)
-                .collect()
-        }
+        reader.binary_raster(width, height, maxval)?
     } else {
-        let mut pixels = Vec::with_capacity(count);
-        for i in 0..count {
-            let t = token(&mut pos).map_err(|_| {
-                format!("PGM has {i} pixel values, expected {count} for {width}×{height}")
-            })?;
-            let v: u32 = t
-                .parse()
-                .map_err(|_| format!("PGM pixel {i} is {t:?}, expected an integer"))?;
-            pixels.push(v);
-        }
-        pixels
+        reader.ascii_raster(width, height)?
     };
     if let Some((i, v)) = pixels.iter().enumerate().find(|(_, v)| **v > maxval) {
         return Err(format!("PGM pixel {i} is {v}, above maxval {maxval}"));
@@ -547,6 +503,98 @@ pub fn parse_pgm(bytes: &[u8]) -> std::result::Result<Pgm, String> {
         maxval,
         pixels,
     })
+}
+
+/// A PGM file's bytes and how far they have been read.
+struct PgmReader<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+}
+
+impl PgmReader<'_> {
+    /// The next whitespace-separated header token, skipping `#` comments.
+    fn token(&mut self) -> std::result::Result<String, String> {
+        let bytes = self.bytes;
+        loop {
+            while self.pos < bytes.len() && bytes[self.pos].is_ascii_whitespace() {
+                self.pos += 1;
+            }
+            if self.pos < bytes.len() && bytes[self.pos] == b'#' {
+                while self.pos < bytes.len() && bytes[self.pos] != b'\n' {
+                    self.pos += 1;
+                }
+                continue;
+            }
+            break;
+        }
+        let start = self.pos;
+        while self.pos < bytes.len()
+            && !bytes[self.pos].is_ascii_whitespace()
+            && bytes[self.pos] != b'#'
+        {
+            self.pos += 1;
+        }
+        if start == self.pos {
+            return Err("unexpected end of PGM header".into());
+        }
+        Ok(String::from_utf8_lossy(&bytes[start..self.pos]).into_owned())
+    }
+
+    /// The next header token as the non-negative integer `name`.
+    fn number(&mut self, name: &str) -> std::result::Result<u32, String> {
+        let t = self.token()?;
+        t.parse::<u32>()
+            .map_err(|_| format!("PGM {name} is {t:?}, expected a positive integer"))
+    }
+
+    /// A P5 raster: one byte a pixel up to maxval 255, else two, big-endian.
+    fn binary_raster(
+        &mut self,
+        width: usize,
+        height: usize,
+        maxval: u32,
+    ) -> std::result::Result<Vec<u32>, String> {
+        // Exactly one whitespace byte separates the header from the raster.
+        self.pos += 1;
+        let bpp = if maxval > 255 { 2 } else { 1 };
+        let need = width * height * bpp;
+        let have = self.bytes.len().saturating_sub(self.pos);
+        if have < need {
+            return Err(format!(
+                "PGM raster has {have} bytes, expected {need} for {width}×{height} at {} byte(s) per pixel",
+                bpp
+            ));
+        }
+        let raster = &self.bytes[self.pos..self.pos + need];
+        Ok(if bpp == 1 {
+            raster.iter().map(|&b| b as u32).collect()
+        } else {
+            raster
+                .chunks_exact(2)
+                .map(|c| u16::from_be_bytes([c[0], c[1]]) as u32)
+                .collect()
+        })
+    }
+
+    /// A P2 raster: `width × height` whitespace-separated integers.
+    fn ascii_raster(
+        &mut self,
+        width: usize,
+        height: usize,
+    ) -> std::result::Result<Vec<u32>, String> {
+        let count = width * height;
+        let mut pixels = Vec::with_capacity(count);
+        for i in 0..count {
+            let t = self.token().map_err(|_| {
+                format!("PGM has {i} pixel values, expected {count} for {width}×{height}")
+            })?;
+            let v: u32 = t
+                .parse()
+                .map_err(|_| format!("PGM pixel {i} is {t:?}, expected an integer"))?;
+            pixels.push(v);
+        }
+        Ok(pixels)
+    }
 }
 
 /// Writes a P5 PGM (used by tests and to export transfer functions).
