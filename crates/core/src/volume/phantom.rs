@@ -87,6 +87,8 @@ impl PhantomParams {
         s
     }
 
+    /// Checks the name, the grid (and that it fits in memory), the values, and that only
+    /// the keys this phantom takes are given.
     fn validate(&self) -> Result<()> {
         if !PHANTOM_NAMES.contains(&self.name.as_str()) {
             return Err(Error::parameter(
@@ -95,6 +97,13 @@ impl PhantomParams {
                 format!("one of {}", PHANTOM_NAMES.join(", ")),
             ));
         }
+        self.validate_resolution()?;
+        self.validate_values()?;
+        self.validate_keys()
+    }
+
+    /// Three voxel counts in [2, 1024] whose working memory fits in the budget.
+    fn validate_resolution(&self) -> Result<()> {
         if self.resolution.iter().any(|&n| !(2..=1024).contains(&n)) {
             return Err(Error::parameter(
                 "resolution",
@@ -116,6 +125,11 @@ impl PhantomParams {
                 ),
             ));
         }
+        Ok(())
+    }
+
+    /// Densities in [0, 1], a range inside it, a radius in (0, 0.5].
+    fn validate_values(&self) -> Result<()> {
         let unit = |key: &str, v: f32| -> Result<()> {
             if v.is_finite() && (0.0..=1.0).contains(&v) {
                 Ok(())
@@ -144,6 +158,11 @@ impl PhantomParams {
         {
             return Err(Error::parameter("radius", r, "a radius in (0, 0.5]"));
         }
+        Ok(())
+    }
+
+    /// Only the keys the named phantom takes.
+    fn validate_keys(&self) -> Result<()> {
         let allowed: &[&str] = match self.name.as_str() {
             "constant" => &["density"],
             "slab" => &["density", "range"],
