@@ -174,62 +174,12 @@ fn parse_header_size(path: &Path, fields: &Fields, compressed: bool) -> Result<(
 }
 
 impl Header {
+    /// The header's fields checked and interpreted: the grid, the voxel type and layout,
+    /// compression, where the data start and the spacing.
     fn parse(path: &Path, fields: &Fields) -> Result<Header> {
-        let ndims = fields
-            .get("ndims")
-            .ok_or_else(|| missing(path, "NDims", "3"))?;
-        if ndims.value.parse::<usize>() != Ok(3) {
-            return Err(ndims.invalid(path, "3 (only 3-D volumes are supported)"));
-        }
-
-        let dim_size = fields
-            .get("dimsize")
-            .ok_or_else(|| missing(path, "DimSize", "3 whole numbers >= 1 (one per axis)"))?;
-        let sizes = parse_sizes(path, dim_size, 3)?;
-        let dims = match sizes.as_slice() {
-            [x, y, z] => [*x, *y, *z],
-            _ => return Err(dim_size.invalid(path, "3 whole numbers >= 1 (one per axis)")),
-        };
-
-        let type_f = fields
-            .get("elementtype")
-            .ok_or_else(|| missing(path, "ElementType", SUPPORTED_TYPES))?;
-        let voxel = match type_f.value.to_ascii_uppercase().as_str() {
-            "MET_UCHAR" => VoxelType::U8,
-            "MET_CHAR" => VoxelType::I8,
-            "MET_USHORT" => VoxelType::U16,
-            "MET_SHORT" => VoxelType::I16,
-            "MET_FLOAT" => VoxelType::F32,
-            _ => {
-                return Err(type_f.invalid(path, format!("a supported type: {SUPPORTED_TYPES}")));
-            }
-        };
-
-        if let Some(f) = fields.get("elementnumberofchannels")
-            && f.value.parse::<u64>() != Ok(1)
-        {
-            return Err(f.invalid(path, "1 (only scalar volumes are supported)"));
-        }
-        if let Some(f) = fields.get("binarydata")
-            && !parse_bool(path, f)?
-        {
-            return Err(f.invalid(path, "True (ASCII voxel data is not supported)"));
-        }
-
-        // ITK writes either name for the byte order; the first is the current one.
-        let msb = match fields
-            .get("binarydatabyteordermsb")
-            .or_else(|| fields.get("elementbyteordermsb"))
-        {
-            Some(f) => parse_bool(path, f)?,
-            None => false,
-        };
-        let order = if msb {
-            ByteOrder::Big
-        } else {
-            ByteOrder::Little
-        };
-
+        let dims = parse_dims(path, fields)?;
+        let (voxel, type_name) = parse_element(path, fields)?;
+        let order = parse_byte_order(path, fields)?;
         let compressed = match fields.get("compresseddata") {
             Some(f) => parse_bool(path, f)?,
             None => false,
@@ -249,7 +199,7 @@ impl Header {
         Ok(Header {
             dims,
             voxel,
-            type_name: type_f.value.clone(),
+            type_name,
             order,
             compressed,
             skip,
@@ -257,6 +207,73 @@ impl Header {
             spacing,
         })
     }
+}
+
+/// `NDims = 3` and the three `DimSize`s.
+fn parse_dims(path: &Path, fields: &Fields) -> Result<[usize; 3]> {
+    let ndims = fields
+        .get("ndims")
+        .ok_or_else(|| missing(path, "NDims", "3"))?;
+    if ndims.value.parse::<usize>() != Ok(3) {
+        return Err(ndims.invalid(path, "3 (only 3-D volumes are supported)"));
+    }
+
+    let dim_size = fields
+        .get("dimsize")
+        .ok_or_else(|| missing(path, "DimSize", "3 whole numbers >= 1 (one per axis)"))?;
+    let sizes = parse_sizes(path, dim_size, 3)?;
+    let dims = match sizes.as_slice() {
+        [x, y, z] => [*x, *y, *z],
+        _ => return Err(dim_size.invalid(path, "3 whole numbers >= 1 (one per axis)")),
+    };
+    Ok(dims)
+}
+
+/// The voxel type (`ElementType`, as written too), one channel, binary data.
+fn parse_element(path: &Path, fields: &Fields) -> Result<(VoxelType, String)> {
+    let type_f = fields
+        .get("elementtype")
+        .ok_or_else(|| missing(path, "ElementType", SUPPORTED_TYPES))?;
+    let voxel = match type_f.value.to_ascii_uppercase().as_str() {
+        "MET_UCHAR" => VoxelType::U8,
+        "MET_CHAR" => VoxelType::I8,
+        "MET_USHORT" => VoxelType::U16,
+        "MET_SHORT" => VoxelType::I16,
+        "MET_FLOAT" => VoxelType::F32,
+        _ => {
+            return Err(type_f.invalid(path, format!("a supported type: {SUPPORTED_TYPES}")));
+        }
+    };
+
+    if let Some(f) = fields.get("elementnumberofchannels")
+        && f.value.parse::<u64>() != Ok(1)
+    {
+        return Err(f.invalid(path, "1 (only scalar volumes are supported)"));
+    }
+    if let Some(f) = fields.get("binarydata")
+        && !parse_bool(path, f)?
+    {
+        return Err(f.invalid(path, "True (ASCII voxel data is not supported)"));
+    }
+    Ok((voxel, type_f.value.clone()))
+}
+
+/// The byte order (`BinaryDataByteOrderMSB` or `ElementByteOrderMSB`; little endian
+/// without either).
+fn parse_byte_order(path: &Path, fields: &Fields) -> Result<ByteOrder> {
+    // ITK writes either name for the byte order; the first is the current one.
+    let msb = match fields
+        .get("binarydatabyteordermsb")
+        .or_else(|| fields.get("elementbyteordermsb"))
+    {
+        Some(f) => parse_bool(path, f)?,
+        None => false,
+    };
+    Ok(if msb {
+        ByteOrder::Big
+    } else {
+        ByteOrder::Little
+    })
 }
 
 /// Writes a MetaImage volume, little endian, with `ElementSpacing`.
