@@ -77,8 +77,26 @@ pub fn scan(path: &Path) -> Result<std::result::Result<Vec<SliceHeader>, Skip>> 
     slices_of(path, &obj).map(Ok)
 }
 
+/// The header of every frame of one DICOM object (one for a classic slice, several for an
+/// enhanced multi-frame object).
 fn slices_of(path: &Path, obj: &DefaultDicomObject) -> Result<Vec<SliceHeader>> {
-    let ts = obj.meta().transfer_syntax().to_string();
+    let frames = frame_count(path, obj)?;
+    let format = pixel_format(path, obj)?;
+    let common = SliceCommon {
+        path,
+        obj,
+        transfer_syntax: obj.meta().transfer_syntax().to_string(),
+        size: [
+            int(path, obj, tags::ROWS, "Rows")?,
+            int(path, obj, tags::COLUMNS, "Columns")?,
+        ],
+        format,
+    };
+    (0..frames).map(|frame| common.frame(frame)).collect()
+}
+
+/// `NumberOfFrames` (1 when absent), at least 1.
+fn frame_count(path: &Path, obj: &DefaultDicomObject) -> Result<u32> {
     let frames: u32 = match obj.get(tags::NUMBER_OF_FRAMES) {
         None => 1,
         Some(e) => e
@@ -88,6 +106,11 @@ fn slices_of(path: &Path, obj: &DefaultDicomObject) -> Result<Vec<SliceHeader>> 
     if frames == 0 {
         return Err(bad(path, "NumberOfFrames", "at least 1 (the value is 0)"));
     }
+    Ok(frames)
+}
+
+/// The pixel format of a greyscale image (one sample a pixel), checked.
+fn pixel_format(path: &Path, obj: &DefaultDicomObject) -> Result<PixelFormat> {
     let samples = int(path, obj, tags::SAMPLES_PER_PIXEL, "SamplesPerPixel").unwrap_or(1);
     if samples != 1 {
         return Err(Error::format(
@@ -103,12 +126,23 @@ fn slices_of(path: &Path, obj: &DefaultDicomObject) -> Result<Vec<SliceHeader>> 
         inverted: photometric == "MONOCHROME1",
     };
     check_format(path, &format, &photometric)?;
-    let size = [
-        int(path, obj, tags::ROWS, "Rows")?,
-        int(path, obj, tags::COLUMNS, "Columns")?,
-    ];
-    let mut out = Vec::with_capacity(frames as usize);
-    for frame in 0..frames {
+    Ok(format)
+}
+
+/// What every frame of one object shares.
+struct SliceCommon<'a> {
+    path: &'a Path,
+    obj: &'a DefaultDicomObject,
+    transfer_syntax: String,
+    size: [u32; 2],
+    format: PixelFormat,
+}
+
+impl SliceCommon<'_> {
+    /// Frame `frame`'s header: its geometry and rescale from the object or, in an enhanced
+    /// object, from the frame's functional groups.
+    fn frame(&self, frame: u32) -> Result<SliceHeader> {
+        let (path, obj) = (self.path, self.obj);
         let found = |tag, seq| functional(obj, frame, seq, tag);
         let position = floats::<3>(
             path,
@@ -140,26 +174,25 @@ fn slices_of(path: &Path, obj: &DefaultDicomObject) -> Result<Vec<SliceHeader>> 
             tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE,
         );
         let thickness = found(tags::SLICE_THICKNESS, tags::PIXEL_MEASURES_SEQUENCE);
-        out.push(SliceHeader {
+        Ok(SliceHeader {
             path: path.to_path_buf(),
             frame,
             series_uid: text(obj, tags::SERIES_INSTANCE_UID),
             description: text(obj, tags::SERIES_DESCRIPTION),
             modality: text(obj, tags::MODALITY),
-            transfer_syntax: ts.clone(),
+            transfer_syntax: self.transfer_syntax.clone(),
             position,
             orientation,
             pixel_spacing,
-            size,
-            format,
+            size: self.size,
+            format: self.format,
             rescale: [
                 optional_float(path, slope, "RescaleSlope")?.unwrap_or(1.0),
                 optional_float(path, intercept, "RescaleIntercept")?.unwrap_or(0.0),
             ],
             thickness: optional_float(path, thickness, "SliceThickness")?,
-        });
+        })
     }
-    Ok(out)
 }
 
 fn check_format(path: &Path, f: &PixelFormat, photometric: &str) -> Result<()> {
