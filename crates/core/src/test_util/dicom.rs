@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use dicom_core::value::{DataSetSequence, PixelFragmentSequence, PrimitiveValue};
-use dicom_core::{DataElement, Length, VR};
+use dicom_core::{DataElement, Length, Tag, VR};
 use dicom_dictionary_std::{tags, uids};
 use dicom_object::{FileMetaTableBuilder, InMemDicomObject};
 
@@ -81,93 +81,107 @@ fn item(elements: Vec<DataElement<InMemDicomObject>>) -> InMemDicomObject {
 /// concatenated) to `path`.
 pub fn write_slice(path: &Path, spec: &SliceSpec, words: &[u16]) -> Result<(), String> {
     let mut obj = InMemDicomObject::new_empty();
-    let put = |obj: &mut InMemDicomObject, tag, vr, value: PrimitiveValue| {
-        obj.put(DataElement::new(tag, vr, value));
-    };
     let multi = spec.positions.len() > 1;
+    put_identity(&mut obj, spec, multi);
+    put_pixel_module(&mut obj, spec);
+    if multi {
+        put_functional_groups(&mut obj, spec);
+    } else {
+        put_plane(&mut obj, spec);
+    }
+    put_pixel_data(&mut obj, spec, words);
+    let file = obj
+        .with_meta(FileMetaTableBuilder::new().transfer_syntax(spec.transfer_syntax.as_str()))
+        .map_err(|e| format!("{}: meta: {e}", path.display()))?;
+    file.write_to_file(path)
+        .map_err(|e| format!("{}: write: {e}", path.display()))
+}
+
+/// Puts one element.
+fn put(obj: &mut InMemDicomObject, tag: Tag, vr: VR, value: PrimitiveValue) {
+    obj.put(DataElement::new(tag, vr, value));
+}
+
+/// The SOP class (enhanced CT for several frames) and instance, modality, study and
+/// series.
+fn put_identity(obj: &mut InMemDicomObject, spec: &SliceSpec, multi: bool) {
     let class = if multi {
         uids::ENHANCED_CT_IMAGE_STORAGE
     } else {
         uids::CT_IMAGE_STORAGE
     };
-    put(&mut obj, tags::SOP_CLASS_UID, VR::UI, class.into());
+    put(obj, tags::SOP_CLASS_UID, VR::UI, class.into());
     put(
-        &mut obj,
+        obj,
         tags::SOP_INSTANCE_UID,
         VR::UI,
         spec.sop_uid.as_str().into(),
     );
-    put(&mut obj, tags::MODALITY, VR::CS, "CT".into());
-    put(&mut obj, tags::STUDY_INSTANCE_UID, VR::UI, "2.25.1".into());
+    put(obj, tags::MODALITY, VR::CS, "CT".into());
+    put(obj, tags::STUDY_INSTANCE_UID, VR::UI, "2.25.1".into());
     put(
-        &mut obj,
+        obj,
         tags::SERIES_INSTANCE_UID,
         VR::UI,
         spec.series_uid.as_str().into(),
     );
     put(
-        &mut obj,
+        obj,
         tags::SERIES_DESCRIPTION,
         VR::LO,
         spec.description.as_str().into(),
     );
-    put(&mut obj, tags::SAMPLES_PER_PIXEL, VR::US, us(1));
+}
+
+/// The image pixel module: one greyscale sample, size, 16 bits allocated, signedness.
+fn put_pixel_module(obj: &mut InMemDicomObject, spec: &SliceSpec) {
+    put(obj, tags::SAMPLES_PER_PIXEL, VR::US, us(1));
     let photometric = if spec.monochrome1 {
         "MONOCHROME1"
     } else {
         "MONOCHROME2"
     };
     put(
-        &mut obj,
+        obj,
         tags::PHOTOMETRIC_INTERPRETATION,
         VR::CS,
         photometric.into(),
     );
-    put(&mut obj, tags::ROWS, VR::US, us(spec.size[0]));
-    put(&mut obj, tags::COLUMNS, VR::US, us(spec.size[1]));
-    put(&mut obj, tags::BITS_ALLOCATED, VR::US, us(16));
-    put(&mut obj, tags::BITS_STORED, VR::US, us(spec.bits_stored));
-    put(&mut obj, tags::HIGH_BIT, VR::US, us(spec.bits_stored - 1));
+    put(obj, tags::ROWS, VR::US, us(spec.size[0]));
+    put(obj, tags::COLUMNS, VR::US, us(spec.size[1]));
+    put(obj, tags::BITS_ALLOCATED, VR::US, us(16));
+    put(obj, tags::BITS_STORED, VR::US, us(spec.bits_stored));
+    put(obj, tags::HIGH_BIT, VR::US, us(spec.bits_stored - 1));
     put(
-        &mut obj,
+        obj,
         tags::PIXEL_REPRESENTATION,
         VR::US,
         us(u16::from(spec.signed)),
     );
-    if multi {
-        put_functional_groups(&mut obj, spec);
-    } else {
-        put(
-            &mut obj,
-            tags::IMAGE_POSITION_PATIENT,
-            VR::DS,
-            ds(&spec.positions[0]),
-        );
-        put(
-            &mut obj,
-            tags::IMAGE_ORIENTATION_PATIENT,
-            VR::DS,
-            ds(&spec.orientation),
-        );
-        put(
-            &mut obj,
-            tags::PIXEL_SPACING,
-            VR::DS,
-            ds(&spec.pixel_spacing),
-        );
-        put(
-            &mut obj,
-            tags::RESCALE_SLOPE,
-            VR::DS,
-            ds(&spec.rescale[..1]),
-        );
-        put(
-            &mut obj,
-            tags::RESCALE_INTERCEPT,
-            VR::DS,
-            ds(&spec.rescale[1..]),
-        );
-    }
+}
+
+/// A single frame's plane (position, orientation, spacing) and rescale.
+fn put_plane(obj: &mut InMemDicomObject, spec: &SliceSpec) {
+    put(
+        obj,
+        tags::IMAGE_POSITION_PATIENT,
+        VR::DS,
+        ds(&spec.positions[0]),
+    );
+    put(
+        obj,
+        tags::IMAGE_ORIENTATION_PATIENT,
+        VR::DS,
+        ds(&spec.orientation),
+    );
+    put(obj, tags::PIXEL_SPACING, VR::DS, ds(&spec.pixel_spacing));
+    put(obj, tags::RESCALE_SLOPE, VR::DS, ds(&spec.rescale[..1]));
+    put(obj, tags::RESCALE_INTERCEPT, VR::DS, ds(&spec.rescale[1..]));
+}
+
+/// The pixel data: native words, RLE fragments, or one fragment of raw bytes for any
+/// other (encapsulated) transfer syntax.
+fn put_pixel_data(obj: &mut InMemDicomObject, spec: &SliceSpec, words: &[u16]) {
     let native = [
         uids::EXPLICIT_VR_LITTLE_ENDIAN,
         uids::IMPLICIT_VR_LITTLE_ENDIAN,
@@ -194,11 +208,6 @@ pub fn write_slice(path: &Path, spec: &SliceSpec, words: &[u16]) -> Result<(), S
             PixelFragmentSequence::new(vec![], vec![bytes]),
         ));
     }
-    let file = obj
-        .with_meta(FileMetaTableBuilder::new().transfer_syntax(spec.transfer_syntax.as_str()))
-        .map_err(|e| format!("{}: meta: {e}", path.display()))?;
-    file.write_to_file(path)
-        .map_err(|e| format!("{}: write: {e}", path.display()))
 }
 
 fn put_functional_groups(obj: &mut InMemDicomObject, spec: &SliceSpec) {
