@@ -46,11 +46,11 @@ pub(crate) const PILOT_SIDE: u32 = 32;
 
 /// Pixels along the longer side of a progressive or beam pilot: a later pass shades a
 /// first march's samples again with no march of its own, 3–10 ms at 32² on the thesis's
-/// foot, where timing noise and what a pass costs whatever its pixels (±50 % between two
-/// plans) are scaled by the pixel ratio with it. At 64² a pass does four times the work
-/// (`sweep plan experiments/alpha.toml --paper` against the 571 s of wall time its
-/// committed run spent beyond its references: 1 017 and 1 034 s at 32², 743–826 s in four
-/// plans at 64²).
+/// foot, where what a pass costs whatever its pixels is scaled by the pixel ratio with it
+/// (256 at 32², 64 at 64²). `sweep plan experiments/alpha.toml --paper` against the 571 s
+/// of wall time its committed run spent beyond its references: 1 017 and 1 034 s at 32²,
+/// 743–826 s in four plans at 64². One cell's estimate still differs by up to 1.6× between
+/// two plans at either size (timing noise).
 pub(crate) const ITERATED_PILOT_SIDE: u32 = 64;
 
 /// Iterations a progressive or beam pilot renders: the first pass (every layer) and one
