@@ -7,8 +7,9 @@
 //! volume, and the same build ran 1.4× slower on one day than on another
 //! (`reports/REPRODUCTION.md`). A pilot measures the group's own per-pixel cost instead:
 //! the same `render_shared` call a run makes, on an image of at most `PILOT_SIDE` pixels a
-//! side (`ITERATED_PILOT_SIDE` for progressive and beam renders) of the same view, with the photon maps at their full size (their cost does not depend on the
-//! image). What does not scale with the pixels is timed apart and added unscaled: loading
+//! side (`ITERATED_PILOT_SIDE` for progressive and beam renders) of the same view, with
+//! the photon maps at their full size (their cost does not depend on the image). What
+//! does not scale with the pixels is timed apart and added unscaled: loading
 //! and preparing the media, tracing and indexing each photon map, and the pass that measures
 //! thinning's error on up to 32 × 32 probe pixels (left out of the pilot, and charged at
 //! the pilot's per-pixel cost: [`error_probe_rays`] eye rays per probe pixel).
@@ -127,11 +128,14 @@ fn later_radii(second: f32, i: &IntegratorParams) -> Vec<f32> {
 }
 
 /// A pilot of the progressive render `i` whose second iteration gathers at `radius` (the
-/// cell's last): its first starts at the radius whose successor that is.
+/// cell's last): its first starts at the radius whose successor that is. Only that second
+/// pass is used, which shades the multiple layer alone, so the first pass renders no
+/// direct layers either.
 fn last_radius_pilot(i: &IntegratorParams, radius: f32) -> IntegratorParams {
     let mut pilot = pilot_integrator(i);
     pilot.initial_radius = InitialRadius::Maxdist;
     pilot.maxdist = radius / next_radius(1.0, 1, i.alpha, i.estimator);
+    (pilot.single, pilot.emission) = (false, false);
     pilot
 }
 
@@ -274,8 +278,8 @@ impl Pilots {
     }
 
     /// The pilot of the progressive render `i` (at `scene`'s pilot size) with its second
-    /// iteration at the last iteration's radius, where that radius is smaller than the
-    /// second's (`p`, the pilot as the cell starts): see [`later_pass_seconds`].
+    /// iteration at the last iteration's radius, when `i` iterates past the two iterations
+    /// `p` (the pilot as the cell starts) measured: see [`later_pass_seconds`].
     fn at_last_radius(
         &mut self,
         scene: &volphot::Scene,
@@ -426,6 +430,7 @@ mod tests {
         let pilot = last_radius_pilot(&i, last);
         assert_eq!(pilot.initial_radius, InitialRadius::Maxdist);
         assert_eq!(pilot.iterations, PILOT_ITERATIONS);
+        assert!(pilot.multiple && !pilot.single && !pilot.emission);
         let second = next_radius(pilot.maxdist, 1, i.alpha, i.estimator);
         assert!((second / last - 1.0).abs() < 1e-6, "{second} vs {last}");
         assert!(pilots_last_radius(&i));
