@@ -331,20 +331,20 @@ pub fn render_shared(
     if scene.integrator().estimator != MsEstimator::Points {
         return render_each(scene, variants, control);
     }
-    let plan = SharedMaps::build(scene, variants, control)?;
-    let map_refs: Vec<&PhotonMap> = plan.maps.iter().map(|(_, m)| m).collect();
-    let out = render_march(scene, &map_refs, &plan.ms_variants, control)?;
-    let films = plan
+    let shared = SharedMaps::build(scene, variants, control)?;
+    let map_refs: Vec<&PhotonMap> = shared.maps.iter().map(|(_, m)| m).collect();
+    let out = render_march(scene, &map_refs, &shared.ms_variants, control)?;
+    let films = shared
         .film_of
         .iter()
         .map(|slot| match slot {
-            Some(i) => plan.film_of_variant(*i, &out),
+            Some(i) => shared.film_of_variant(*i, &out),
             None => single_only_film(&out),
         })
         .collect();
     Ok(SharedRender {
         films,
-        photon_maps: plan.maps.len(),
+        photon_maps: shared.maps.len(),
         render_seconds: out.stats.seconds,
     })
 }
@@ -357,15 +357,7 @@ fn render_reference_shared(
     control: &Control<'_>,
 ) -> Result<SharedRender> {
     let out = render(scene, control)?;
-    let film = SharedFilm {
-        film: out.film,
-        photons: None,
-        photon_seconds: 0.0,
-        tree_seconds: 0.0,
-        map_shared_by: 0,
-        cache_error: None,
-        progressive: None,
-    };
+    let film = SharedFilm::without_map(out.film, None);
     Ok(SharedRender {
         films: vec![film; variants],
         photon_maps: 0,
@@ -445,13 +437,21 @@ fn single_only_film(out: &MarchOutput) -> SharedFilm {
         Layer::Multiple,
         vec![glam::Vec3::ZERO; film.width() * film.height()],
     );
-    SharedFilm {
-        film,
-        photons: None,
-        photon_seconds: 0.0,
-        tree_seconds: 0.0,
-        map_shared_by: 0,
-        cache_error: out.cache_errors[0].clone(),
-        progressive: None,
+    SharedFilm::without_map(film, out.cache_errors[0].clone())
+}
+
+impl SharedFilm {
+    /// A film rendered without a photon map of its own (a reference, or a setting
+    /// without multiple scattering).
+    fn without_map(film: Film, cache_error: Option<CacheError>) -> Self {
+        SharedFilm {
+            film,
+            photons: None,
+            photon_seconds: 0.0,
+            tree_seconds: 0.0,
+            map_shared_by: 0,
+            cache_error,
+            progressive: None,
+        }
     }
 }

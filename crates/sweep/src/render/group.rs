@@ -118,8 +118,8 @@ impl<'g> Claimed<'g> {
         Ok(claimed)
     }
 
-    /// The outcome of rendering none of the claimed cells.
-    fn nothing_rendered(self) -> GroupOutcome {
+    /// The group's outcome before any cell is rendered (releasing the locks).
+    fn into_outcome(self) -> GroupOutcome {
         GroupOutcome {
             failures: self.failures,
             busy: self.busy,
@@ -139,7 +139,7 @@ pub(crate) fn render_group(
     let mut claimed = Claimed::lock(group, ctx)?;
     let jobs = &claimed.jobs;
     if jobs.is_empty() {
-        return Ok(claimed.nothing_rendered());
+        return Ok(claimed.into_outcome());
     }
     // The group's scene: any cell's (they differ only in multiple-scattering settings),
     // with multiple scattering on when any cell wants it.
@@ -172,7 +172,7 @@ pub(crate) fn render_group(
     Ok(GroupOutcome {
         rendered,
         photon_maps: shared.photon_maps,
-        ..claimed.nothing_rendered()
+        ..claimed.into_outcome()
     })
 }
 

@@ -222,11 +222,10 @@ fn parse_dims(path: &Path, fields: &Fields) -> Result<[usize; 3]> {
         .get("dimsize")
         .ok_or_else(|| missing(path, "DimSize", "3 whole numbers >= 1 (one per axis)"))?;
     let sizes = parse_sizes(path, dim_size, 3)?;
-    let dims = match sizes.as_slice() {
-        [x, y, z] => [*x, *y, *z],
-        _ => return Err(dim_size.invalid(path, "3 whole numbers >= 1 (one per axis)")),
-    };
-    Ok(dims)
+    match sizes.as_slice() {
+        [x, y, z] => Ok([*x, *y, *z]),
+        _ => Err(dim_size.invalid(path, "3 whole numbers >= 1 (one per axis)")),
+    }
 }
 
 /// The voxel type (`ElementType`, as written too), one channel, binary data.
