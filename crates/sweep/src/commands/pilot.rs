@@ -50,7 +50,7 @@ pub(crate) const PILOT_SIDE: u32 = 32;
 /// foot, where what a pass costs whatever its pixels is scaled by the pixel ratio with it
 /// (256 at 32², 64 at 64²). `sweep plan experiments/alpha.toml --paper` against the 571 s
 /// of wall time its committed run spent beyond its references: 1 017 and 1 034 s at 32²,
-/// 743–826 s in four plans at 64². One cell's estimate still differs by up to 1.6× between
+/// 729–826 s in six plans at 64². One cell's estimate still differs by up to 1.6× between
 /// two plans at either size (timing noise).
 pub(crate) const ITERATED_PILOT_SIDE: u32 = 64;
 
