@@ -155,6 +155,12 @@ impl Error {
         }
     }
 
+    /// A parameter error for `key`, given where it does not apply: its value reads
+    /// "(given)" and `expected` says where it would.
+    pub fn given_without_use(key: impl Into<String>, expected: impl Into<String>) -> Self {
+        Error::parameter(key, "(given)", expected)
+    }
+
     /// A format error for `path`.
     pub fn format(path: impl AsRef<Path>, message: impl Into<String>) -> Self {
         Error::Format {

@@ -195,9 +195,8 @@ pub struct Coefficients {
 /// A key that the chosen mapping does not take.
 fn forbid(params: &SigmaParams, key: &str, present: bool) -> Result<()> {
     if present {
-        Err(Error::parameter(
+        Err(Error::given_without_use(
             key,
-            "(given)",
             format!("no `{key}` with mapping = \"{}\"", params.mapping.name()),
         ))
     } else {

@@ -210,9 +210,8 @@ impl TransferFunction {
             ("threshold", params.threshold.is_some()),
         ];
         if let Some((key, _)) = given.into_iter().find(|(_, present)| *present) {
-            return Err(Error::parameter(
+            return Err(Error::given_without_use(
                 key,
-                "(given)",
                 format!("no `{key}` with kind = \"{}\"", params.kind.name()),
             ));
         }
@@ -271,9 +270,8 @@ impl TransferFunction {
             ));
         }
         if params.points.is_some() || params.threshold.is_some() {
-            return Err(Error::parameter(
+            return Err(Error::given_without_use(
                 "points",
-                "(given)",
                 "no `points` or `threshold` with a colour transfer function",
             ));
         }

@@ -163,9 +163,8 @@ impl Light {
                     ("falloff", params.falloff.is_some()),
                 ] {
                     if present {
-                        return Err(Error::parameter(
+                        return Err(Error::given_without_use(
                             key,
-                            "(given)",
                             "no such key for a point light",
                         ));
                     }

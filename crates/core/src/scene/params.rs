@@ -233,11 +233,6 @@ fn volume_choice(v: &VolumeParams) -> Result<VolumeChoice<'_>> {
     })
 }
 
-/// The error for `key` given where it does not apply.
-fn given_without_use(key: impl Into<String>, expected: &str) -> Error {
-    Error::parameter(key, "(given)", expected)
-}
-
 /// Exactly one of `dataset`, `file`, `dicom`, `phantom`.
 fn check_one_source(v: &VolumeParams) -> Result<()> {
     let given = [
@@ -269,7 +264,7 @@ fn check_dicom_keys(v: &VolumeParams) -> Result<()> {
         ));
     }
     if v.series.is_some() && v.dicom.is_none() {
-        return Err(given_without_use(
+        return Err(Error::given_without_use(
             "volume.series",
             "only with `dicom` (it picks a SeriesInstanceUID)",
         ));
@@ -298,7 +293,7 @@ fn check_raw_keys(v: &VolumeParams) -> Result<()> {
     });
     for (key, present) in raw_keys {
         if present && !is_raw_file {
-            return Err(given_without_use(
+            return Err(Error::given_without_use(
                 format!("volume.{key}"),
                 "only with a headerless RAW `file` (datasets and header files carry their own layout)",
             ));
@@ -332,16 +327,19 @@ fn check_placement_and_values(v: &VolumeParams) -> Result<()> {
         ));
     }
     if v.window.is_some() && v.normalize != Some(NormalizeKind::Window) {
-        return Err(given_without_use(
+        return Err(Error::given_without_use(
             "volume.window",
             "only with normalize = \"window\"",
         ));
     }
     if v.sha256.is_some() && v.file.is_none() {
-        return Err(given_without_use("volume.sha256", "only with `file`"));
+        return Err(Error::given_without_use(
+            "volume.sha256",
+            "only with `file`",
+        ));
     }
     if v.phantom.is_some() && v.normalize.is_some() {
-        return Err(given_without_use(
+        return Err(Error::given_without_use(
             "volume.normalize",
             "no normalisation for phantoms (they are already in [0, 1])",
         ));

@@ -177,9 +177,8 @@ impl PhantomParams {
             ("radius", self.radius.is_some()),
         ] {
             if present && !allowed.contains(&key) {
-                return Err(Error::parameter(
+                return Err(Error::given_without_use(
                     key,
-                    "(given)",
                     format!(
                         "no `{key}` for phantom `{}` (it takes {})",
                         self.name,
