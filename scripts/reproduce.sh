@@ -3,9 +3,9 @@
 #
 #   scripts/reproduce.sh            # default quality (37 min on 2 cores with the build, measured)
 #   scripts/reproduce.sh --paper    # thesis resolution and the full grids (4 h 26 min on 2 cores
-#                                   # measured study by study, 3 h 11 min with stepsize, alpha
-#                                   # and consistency rendered again on 2026-12-05; 5 h 10 min
-#                                   # as first committed; reports/REPRODUCTION.md)
+#                                   # measured study by study, 2 h 52 min with stepsize, alpha,
+#                                   # consistency and artifacts rendered again on 2026-12-05;
+#                                   # 5 h 10 min as first committed; reports/REPRODUCTION.md)
 #
 # Needs the real volumes on the search path ($VOLPHOT_DATA, ./data or ../shared/data).
 # Finished cells are reused; delete a report folder to render it again.
