@@ -105,8 +105,9 @@ pub use scene::{
     validate_params,
 };
 pub use util::{
-    cache_dir, hostname, is_stale_temp, memory_budget_bytes, peak_memory_bytes,
-    process_cpu_seconds, sha256_bytes, sha256_cached, sha256_content, sha256_file, temp_sibling,
+    TEXT_INPUT_CAP, byte_size, cache_dir, escaped_prefix, hostname, is_stale_temp,
+    memory_budget_bytes, open_regular, peak_memory_bytes, process_cpu_seconds, read_bytes_capped,
+    read_text_capped, sha256_bytes, sha256_cached, sha256_content, sha256_file, temp_sibling,
     write_atomic, write_atomic_with,
 };
 pub use volume::{

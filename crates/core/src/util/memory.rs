@@ -49,7 +49,7 @@ mod tests {
     #[test]
     fn cpu_seconds_grow_with_work() {
         let Some(before) = super::process_cpu_seconds() else {
-            eprintln!("SKIPPED cpu_seconds_grow_with_work: no /proc/self/stat here");
+            crate::test_util::skip("cpu_seconds_grow_with_work", "no /proc/self/stat here");
             return;
         };
         // A fixed amount of work (not a wall-clock time: other processes may share the
