@@ -529,3 +529,178 @@ fn a_panicking_cell_fails_alone() {
         "{e}"
     );
 }
+
+/// An experiment or scene path that names a device, a FIFO or a folder is refused at once,
+/// naming it and what was expected (issue #45, case 4): `sweep plan /dev/zero` read until
+/// memory ran out, and `sweep render` of a FIFO blocked forever.
+#[test]
+fn experiment_and_scene_paths_must_be_regular_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe.toml");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let out_dir = dir.path().join("out");
+    let runs: [(Vec<&std::ffi::OsStr>, &[&str]); 4] = [
+        (
+            vec!["plan".as_ref(), "/dev/zero".as_ref()],
+            &["/dev/zero", "character device", "experiment file"],
+        ),
+        (
+            vec!["run".as_ref(), fifo.as_os_str()],
+            &["pipe.toml", "FIFO", "experiment file"],
+        ),
+        (
+            vec![
+                "render".as_ref(),
+                fifo.as_os_str(),
+                "-o".as_ref(),
+                out_dir.as_os_str(),
+            ],
+            &["pipe.toml", "FIFO", "scene file"],
+        ),
+        (
+            vec!["plan".as_ref(), dir.path().as_os_str()],
+            &["a folder", "experiment file"],
+        ),
+    ];
+    for (args, words) in runs {
+        let out = output_within(sweep().args(&args), 30);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        for w in words {
+            assert!(stderr.contains(w), "{args:?}: {stderr:?} lacks {w:?}");
+        }
+    }
+}
+
+/// Copies `from` into `to` without its `cells/`, `references/` and lock: what a fresh clone
+/// holds of a committed study.
+fn copy_as_cloned(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap().flatten() {
+        let name = entry.file_name();
+        if ["cells", "references", ".lock", ".cache"]
+            .iter()
+            .any(|n| name == *n)
+        {
+            continue;
+        }
+        let target = to.join(&name);
+        if entry.file_type().unwrap().is_dir() {
+            copy_as_cloned(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), &target).unwrap();
+        }
+    }
+}
+
+/// Every file under `dir` with its bytes, sorted by path.
+fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap().flatten() {
+            if entry.file_type().unwrap().is_dir() {
+                stack.push(entry.path());
+            } else {
+                files.push((entry.path(), std::fs::read(entry.path()).unwrap()));
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+/// `sweep report` on a committed study in a fresh clone (its tables, no `cells/`) used to
+/// exit 0 and rewrite `cells.csv` with every `done` row turned `pending`, and the report and
+/// contact sheets with "missing" tiles (issue #45, case 1). It must refuse, write nothing,
+/// and say how to get the data back; `sweep status` must say the cells are recorded done.
+#[test]
+fn report_on_a_cloned_study_keeps_its_recorded_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let study = dir.path().join("quickstart");
+    copy_as_cloned(&workspace().join("reports/quickstart"), &study);
+    let before = snapshot(&study);
+    let recorded = before
+        .iter()
+        .find(|(p, _)| p.ends_with("cells.csv"))
+        .map(|(_, b)| String::from_utf8_lossy(b).matches(",done,").count())
+        .unwrap();
+    assert!(
+        recorded > 0,
+        "the committed quickstart records no done cell"
+    );
+    let out = output_within(sweep().arg("report").arg(&study), 60);
+    let err = stderr(&out);
+    assert!(!out.status.success(), "sweep report succeeded: {err}");
+    for w in [
+        "recorded as done",
+        "Nothing was written",
+        "sweep run experiments/quickstart.toml",
+    ] {
+        assert!(err.contains(w), "{err:?} lacks {w:?}");
+    }
+    assert!(
+        snapshot(&study) == before,
+        "sweep report changed the folder"
+    );
+    let status = output_within(sweep().arg("status").arg(&study), 60);
+    let text = String::from_utf8_lossy(&status.stdout);
+    assert!(
+        text.contains(&format!("recorded {recorded:>5}")),
+        "status does not count {recorded} recorded cells:\n{text}"
+    );
+}
+
+/// User strings in `report.md` are text, never markup (issue #45, case 8): the description
+/// and a scene path given as an axis value used to land there as live HTML.
+#[test]
+fn report_md_escapes_user_strings() {
+    const ATTACK: &str = "\"><img src=x onerror=alert(1)>";
+    let dir = tempfile::tempdir().unwrap();
+    let scene_text =
+        std::fs::read_to_string(workspace().join("experiments/scenes/phantom-engine.toml"))
+            .unwrap();
+    let odd = format!("odd{ATTACK} | x.toml");
+    std::fs::write(dir.path().join("plain.toml"), &scene_text).unwrap();
+    std::fs::write(
+        dir.path().join(&odd),
+        scene_text.replace("t = 80", "t = 40"),
+    )
+    .unwrap();
+    let experiment = dir.path().join("escape.toml");
+    std::fs::write(
+        &experiment,
+        format!(
+            "name = \"escape\"\ndescription = '''Renders `iterations` maps. {ATTACK}'''\n\
+             scene = \"plain.toml\"\n[set]\n\"volume.phantom.resolution\" = [16, 16, 16]\n\
+             \"camera.resolution\" = [12, 12]\n\"integrator.volume_photons\" = 500\n\
+             \"integrator.stepsize\" = 0.02\n[axes]\nscene = [\"plain.toml\", {}]\n",
+            serde_json::to_string(&odd).unwrap()
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    run_ok(
+        sweep()
+            .arg("run")
+            .arg(&experiment)
+            .arg("--output")
+            .arg(&out)
+            .arg("--quiet"),
+    );
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(!md.contains("<img"), "raw HTML in report.md:\n{md}");
+    assert!(
+        md.contains("`iterations`"),
+        "the description's Markdown was lost:\n{md}"
+    );
+    assert!(md.contains("&lt;img src=x onerror=alert(1)&gt;"), "{md}");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(!html.contains("<img src=x"), "live HTML in report.html");
+}

@@ -118,3 +118,100 @@ fn a_variant_renders_the_same_alone_and_in_a_shared_march() {
         assert_eq!(together.films[i].film, alone.films[0].film, "variant {i}");
     }
 }
+
+/// Every text input of a scene (issue #45, case 4): a device, a FIFO or an oversize file in
+/// its place is refused at once, naming the file and what it should have been — before,
+/// `/dev/zero` was read until memory ran out and a FIFO blocked forever.
+#[test]
+fn text_inputs_refuse_devices_fifos_and_oversize_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("fifo.vp");
+    assert!(
+        std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let sparse = dir.path().join("huge.toml");
+    std::fs::File::create(&sparse)
+        .unwrap()
+        .set_len(1 << 30)
+        .unwrap();
+    let huge_vp = dir.path().join("huge.vp");
+    std::fs::File::create(&huge_vp)
+        .unwrap()
+        .set_len(1 << 30)
+        .unwrap();
+    let nrrd_fifo = dir.path().join("fifo.nrrd");
+    std::fs::rename(&fifo, &nrrd_fifo).unwrap();
+    let vp_fifo = dir.path().join("pipe.vp");
+    assert!(
+        std::process::Command::new("mkfifo")
+            .arg(&vp_fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    // The loads run on a thread: a regression that blocks fails here instead of hanging CI.
+    let (send, receive) = std::sync::mpsc::channel();
+    let root = dir.path().to_path_buf();
+    std::thread::spawn(move || {
+        let search = SearchPath::new(vec![]);
+        let errors: Vec<String> = [
+            Path::new("/dev/zero").to_path_buf(),
+            root.join("huge.toml"),
+            root.clone(),
+        ]
+        .iter()
+        .map(|p| Scene::load(p, &search).err().map(|e| e.to_string()))
+        .chain([
+            volphot::ColourTransfer::read(&root.join("huge.vp"))
+                .err()
+                .map(|e| e.to_string()),
+            volphot::ColourTransfer::read(&root.join("pipe.vp"))
+                .err()
+                .map(|e| e.to_string()),
+            volphot::read_nrrd(&root.join("fifo.nrrd"))
+                .err()
+                .map(|e| e.to_string()),
+        ])
+        .map(|e| e.unwrap_or_else(|| "loaded".into()))
+        .collect();
+        let _ = send.send(errors);
+    });
+    let errors = receive
+        .recv_timeout(std::time::Duration::from_secs(30))
+        .expect("reading a device, FIFO or oversize file did not finish within 30 s");
+    let expect: [&[&str]; 6] = [
+        &["/dev/zero", "character device", "scene file"],
+        &["huge.toml", "1073741824 bytes", "16 MiB", "scene file"],
+        &["a folder", "scene file"],
+        &["huge.vp", "16 MiB", "Slicer volume property"],
+        &["pipe.vp", "FIFO", "Slicer volume property"],
+        &["fifo.nrrd", "FIFO", "NRRD"],
+    ];
+    for (error, words) in errors.iter().zip(expect) {
+        for w in words {
+            assert!(error.contains(w), "{error:?} lacks {w:?}");
+        }
+    }
+}
+
+/// A file that is not a MetaImage header is named, with a few escaped bytes of its start,
+/// never its first line (issue #45, case 7).
+#[test]
+fn a_foreign_file_as_metaimage_header_is_not_quoted() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("passwd.mhd");
+    std::fs::write(&path, "root:x:0:0:root:/root:/bin/bash\n").unwrap();
+    let err = volphot::read_metaimage(&path).unwrap_err().to_string();
+    assert!(
+        err.contains("passwd.mhd") && err.contains("Key = Value"),
+        "{err}"
+    );
+    assert!(
+        !err.contains("/bin/bash") && !err.contains("root:/root"),
+        "{err}"
+    );
+}

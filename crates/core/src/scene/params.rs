@@ -180,7 +180,7 @@ impl SceneParams {
 
 /// Reads and parses a scene file; parameter errors are located.
 pub fn load_params(path: &Path) -> Result<(SceneParams, String)> {
-    let src = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let src = crate::util::read_text_capped(path, crate::util::TEXT_INPUT_CAP, "scene file")?;
     let params = SceneParams::from_toml(&src, path)?;
     validate_params(&params).map_err(|e| locate_error(e, &src, path))?;
     Ok((params, src))

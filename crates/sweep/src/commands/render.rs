@@ -72,7 +72,8 @@ fn render_scene(args: &RenderArgs, params: &SceneParams) -> Result<RenderOutput>
         let scene = Scene::from_params(params, base, &SearchPath::from_env()).map_err(|e| {
             locate_error(
                 e,
-                &std::fs::read_to_string(&args.scene).unwrap_or_default(),
+                &volphot::read_text_capped(&args.scene, volphot::TEXT_INPUT_CAP, "scene file")
+                    .unwrap_or_default(),
                 &args.scene,
             )
         })?;

@@ -12,6 +12,8 @@ pub(crate) fn run(args: &ReportArgs) -> Result<ExitCode> {
     let out = OutputDir::new(&args.dir);
     // Only an output folder: nothing (not even a lock file) is written anywhere else.
     read_plan(&out)?;
+    // Before the lock file: a folder that would lose results is left exactly as it was.
+    crate::report::refuse_to_lose_recorded_cells(&out)?;
     // Hold a shared lock: a full run writing this folder would conflict.
     let _lock = lock_folder(&out, false)?;
     let path = crate::report::build_report(&out)?;

@@ -262,13 +262,8 @@ impl Experiment {
         let dir = self.base_dir();
         let load = |rel: &Path| -> Result<(Table, PathBuf)> {
             let path = dir.join(rel);
-            let text = std::fs::read_to_string(&path).with_context(|| {
-                format!(
-                    "{}: reading scene {}",
-                    self.source.path.display(),
-                    path.display()
-                )
-            })?;
+            let text = volphot::read_text_capped(&path, volphot::TEXT_INPUT_CAP, "scene file")
+                .with_context(|| format!("{}: reading its scene", self.source.path.display()))?;
             let table: Table = text
                 .parse()
                 .map_err(|e: toml::de::Error| anyhow::anyhow!(toml_error(&e, &text, &path)))?;

@@ -54,7 +54,7 @@ mod tune;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use toml::{Table, Value};
 use volphot::{Method, toml_error};
 
@@ -161,8 +161,7 @@ impl Experiment {
     /// Reads and checks an experiment file: parse → base scene → axes and zips → exclude
     /// rules → quality presets → reference → comparisons → plots and sheets.
     pub(crate) fn load(path: &Path) -> Result<Self> {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let text = volphot::read_text_capped(path, volphot::TEXT_INPUT_CAP, "experiment file")?;
         let file: ExperimentFile =
             toml::from_str(&text).map_err(|e| anyhow::anyhow!(toml_error(&e, &text, path)))?;
         let source = Source {

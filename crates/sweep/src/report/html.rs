@@ -1,153 +1,31 @@
 //! `report.html`: the report's Markdown as one self-contained page (images inlined), for a
 //! plain `file://` open without a network, with the image explorer before the first
-//! section; plot points and rows of the cells table open their cells in it.
+//! section; plot points and rows of the cells table open their cells in it. The Markdown is
+//! parsed by pulldown-cmark (CommonMark with tables), so the page shows what `report.md`
+//! shows on a code host: table alignment rows, joined paragraph lines, escapes.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{Context, Result};
 use base64::Engine as _;
+use pulldown_cmark::{CowStr, Event, HeadingLevel, Options, Parser, Tag, TagEnd};
 
 use super::explorer::Explorer;
 use super::{Figures, PlotFigure};
 
+/// The page's own style. Wide tables scroll inside their box (`.table-wrap`) instead of
+/// widening the page; a figure's caption is the emphasised paragraph after it.
 const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\
 table{border-collapse:collapse;font-size:0.85em;margin:1em 0}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}\
-th{background:#eee}img{max-width:100%}figure{margin:1em 0 0 0}.caption{font-style:italic;color:#555;margin-top:0.2em}\
-code{background:#f3f3f3;padding:0 3px}";
+th{background:#eee}img{max-width:100%}figure{margin:1em 0 0 0}figure+p{font-style:italic;color:#555;margin-top:0.2em}\
+.table-wrap{max-width:100%;overflow-x:auto}code{background:#f3f3f3;padding:0 3px}";
 
 fn escape(t: &str) -> String {
     t.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
-}
-
-/// Inline Markdown: `code` and `[text](link)`.
-fn inline(t: &str) -> String {
-    let mut out = String::new();
-    let mut code = false;
-    for (i, part) in escape(t).split('`').enumerate() {
-        if i > 0 {
-            out += if code { "</code>" } else { "<code>" };
-            code = !code;
-        }
-        out += part;
-    }
-    let mut result = String::new();
-    let mut rest = out.as_str();
-    while let Some(start) = rest.find('[') {
-        let Some(mid) = rest[start..].find("](") else {
-            break;
-        };
-        let Some(end) = rest[start + mid..].find(')') else {
-            break;
-        };
-        result += &rest[..start];
-        let text = &rest[start + 1..start + mid];
-        let href = &rest[start + mid + 2..start + mid + end];
-        result += &format!("<a href=\"{href}\">{text}</a>");
-        rest = &rest[start + mid + end + 1..];
-    }
-    result += rest;
-    result
-}
-
-/// Open blocks while converting line by line.
-struct Blocks<'a> {
-    body: String,
-    in_table: bool,
-    in_list: bool,
-    /// The current `##` section's title.
-    section: String,
-    /// The plots, by their path relative to the report.
-    plots: Vec<(String, &'a PlotFigure)>,
-}
-
-impl Blocks<'_> {
-    /// Closes a table or list that the line does not continue.
-    fn close_unless(&mut self, trimmed: &str) {
-        if self.in_table && !trimmed.starts_with('|') {
-            self.body += "</table>\n";
-            self.in_table = false;
-        }
-        if self.in_list && !trimmed.starts_with("- ") {
-            self.body += "</ul>\n";
-            self.in_list = false;
-        }
-    }
-
-    /// A table row; the first row is a header when the next line is a rule.
-    fn table_row(&mut self, trimmed: &str, next: Option<&&str>) {
-        if trimmed.chars().all(|c| matches!(c, '|' | '-' | ' ')) {
-            return;
-        }
-        let header = !self.in_table
-            && next.is_some_and(|n| n.trim().starts_with("|-") || n.trim().starts_with("|--"));
-        if !self.in_table {
-            // The cells table: the explorer sorts and filters it, a row opens its cell.
-            self.body += if self.section == "Cells" {
-                "<table id=\"cells-table\">\n"
-            } else {
-                "<table>\n"
-            };
-            self.in_table = true;
-        }
-        let tag = if header { "th" } else { "td" };
-        let cells: Vec<String> = trimmed
-            .trim_matches('|')
-            .split(" | ")
-            .map(|c| format!("<{tag}>{}</{tag}>", inline(c.trim())))
-            .collect();
-        self.body += &format!("<tr>{}</tr>\n", cells.join(""));
-    }
-
-    /// An image, embedded as a data URL.
-    fn image(&mut self, root: &Path, img: &str) -> Result<()> {
-        let (alt, src) = img.split_once("](").unwrap_or(("", ""));
-        let src = src.trim_end_matches(')');
-        let bytes = std::fs::read(root.join(src)).with_context(|| format!("embedding {src}"))?;
-        let data = base64::engine::general_purpose::STANDARD.encode(bytes);
-        let img = format!(
-            "<img alt=\"{}\" src=\"data:image/png;base64,{data}\">",
-            escape(alt)
-        );
-        match self.plots.iter().find(|(path, _)| path == src) {
-            Some((_, plot)) => {
-                self.body += &format!(
-                    "<figure class=\"plot\"><div class=\"plot-box\">{img}{}</div></figure>\n",
-                    plot_points(plot)
-                );
-            }
-            None => self.body += &format!("<figure>{img}</figure>\n"),
-        }
-        Ok(())
-    }
-
-    /// Any other line: heading, list item, caption or paragraph.
-    fn text(&mut self, line: &str, trimmed: &str) {
-        if let Some(h) = trimmed.strip_prefix("### ") {
-            self.body += &format!("<h3>{}</h3>\n", inline(h));
-        } else if let Some(h) = trimmed.strip_prefix("## ") {
-            self.section = h.trim().to_string();
-            self.body += &format!("<h2>{}</h2>\n", inline(h));
-        } else if let Some(h) = trimmed.strip_prefix("# ") {
-            self.body += &format!("<h1>{}</h1>\n", inline(h));
-        } else if let Some(item) = trimmed.strip_prefix("- ") {
-            if !self.in_list {
-                self.body += "<ul>\n";
-                self.in_list = true;
-            }
-            self.body += &format!("<li>{}</li>\n", inline(item));
-        } else if trimmed.starts_with('*') && trimmed.ends_with('*') && trimmed.len() > 2 {
-            self.body += &format!(
-                "<p class=\"caption\">{}</p>\n",
-                inline(trimmed.trim_matches('*'))
-            );
-        } else if !trimmed.is_empty() {
-            let tag = if line.starts_with("    ") { "pre" } else { "p" };
-            self.body += &format!("<{tag}>{}</{tag}>\n", inline(trimmed));
-        }
-    }
+        .replace('"', "&quot;")
 }
 
 /// The clickable points over a plot image: an SVG with the plot's geometry, one circle per
@@ -170,6 +48,48 @@ fn plot_points(plot: &PlotFigure) -> String {
     svg + "</svg>"
 }
 
+/// An image of the report's folder as a `<figure>` with the PNG inlined; a plot gets its
+/// clickable points.
+fn figure(root: &Path, src: &str, alt: &str, plots: &[(String, &PlotFigure)]) -> Result<String> {
+    let bytes = std::fs::read(root.join(src)).with_context(|| format!("embedding {src}"))?;
+    let data = base64::engine::general_purpose::STANDARD.encode(bytes);
+    let img = format!(
+        "<img alt=\"{}\" src=\"data:image/png;base64,{data}\">",
+        escape(alt)
+    );
+    Ok(match plots.iter().find(|(path, _)| path == src) {
+        Some((_, plot)) => format!(
+            "<figure class=\"plot\"><div class=\"plot-box\">{img}{}</div></figure>\n",
+            plot_points(plot)
+        ),
+        None => format!("<figure>{img}</figure>\n"),
+    })
+}
+
+/// A paragraph that holds one image and nothing else: its source and alt text.
+fn lone_image<'a>(events: &[Event<'a>]) -> Option<(CowStr<'a>, String, usize)> {
+    let [
+        Event::Start(Tag::Paragraph),
+        Event::Start(Tag::Image { dest_url, .. }),
+        rest @ ..,
+    ] = events
+    else {
+        return None;
+    };
+    let mut alt = String::new();
+    for (i, e) in rest.iter().enumerate() {
+        match e {
+            Event::Text(t) | Event::Code(t) => alt.push_str(t),
+            Event::End(TagEnd::Image) => {
+                return matches!(rest.get(i + 1), Some(Event::End(TagEnd::Paragraph)))
+                    .then(|| (dest_url.clone(), alt, i + 4));
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
 /// Turns the report's Markdown into a self-contained HTML page (images inlined) with the
 /// explorer.
 pub(crate) fn html(
@@ -178,43 +98,69 @@ pub(crate) fn html(
     explorer: &Explorer,
     figures: &Figures,
 ) -> Result<String> {
-    let mut blocks = Blocks {
-        body: String::new(),
-        in_table: false,
-        in_list: false,
-        section: String::new(),
-        plots: figures
-            .plots
-            .iter()
-            .map(|p| (super::markdown::rel(root, &p.path), p))
-            .collect(),
+    let plots: Vec<(String, &PlotFigure)> = figures
+        .plots
+        .iter()
+        .map(|p| (super::markdown::rel(root, &p.path), p))
+        .collect();
+    let events: Vec<Event> = Parser::new_ext(markdown, Options::ENABLE_TABLES).collect();
+    let mut out: Vec<Event> = Vec::with_capacity(events.len());
+    let (mut explorer_placed, mut in_section_title, mut section) = (false, false, String::new());
+    let mut i = 0;
+    while i < events.len() {
+        if let Some((src, alt, used)) = lone_image(&events[i..]) {
+            out.push(Event::Html(figure(root, &src, &alt, &plots)?.into()));
+            i += used;
+            continue;
+        }
+        let event = events[i].clone();
+        i += 1;
+        match &event {
+            // The explorer goes before the first section.
+            Event::Start(Tag::Heading { level, .. }) if *level == HeadingLevel::H2 => {
+                if !explorer_placed {
+                    out.push(Event::Html(explorer.section().into()));
+                    explorer_placed = true;
+                }
+                in_section_title = true;
+                section.clear();
+            }
+            Event::End(TagEnd::Heading(HeadingLevel::H2)) => in_section_title = false,
+            Event::Text(t) if in_section_title => section.push_str(t),
+            // The cells table: the explorer sorts and filters it, a row opens its cell.
+            Event::Start(Tag::Table(_)) => {
+                let id = if section == "Cells" {
+                    " id=\"cells-table-wrap\""
+                } else {
+                    ""
+                };
+                out.push(Event::Html(
+                    format!("<div class=\"table-wrap\"{id}>").into(),
+                ));
+            }
+            _ => {}
+        }
+        let closes_table = matches!(event, Event::End(TagEnd::Table));
+        out.push(event);
+        if closes_table {
+            out.push(Event::Html("</div>\n".into()));
+        }
+    }
+    let mut body = String::new();
+    pulldown_cmark::html::push_html(&mut body, out.into_iter());
+    // pulldown-cmark writes tables without attributes: the cells table gets its id here.
+    let body = body.replacen(
+        "<div class=\"table-wrap\" id=\"cells-table-wrap\"><table>",
+        "<div class=\"table-wrap\"><table id=\"cells-table\">",
+        1,
+    );
+    let explorer_tail = if explorer_placed {
+        String::new()
+    } else {
+        explorer.section()
     };
-    let lines: Vec<&str> = markdown.lines().collect();
-    let mut explorer_placed = false;
-    for (li, line) in lines.iter().enumerate() {
-        let trimmed = line.trim();
-        blocks.close_unless(trimmed);
-        if !explorer_placed && trimmed.starts_with("## ") {
-            blocks.body += &explorer.section();
-            explorer_placed = true;
-        }
-        if trimmed.starts_with("#") || trimmed.starts_with("- ") {
-            blocks.text(line, trimmed);
-        } else if let Some(img) = trimmed.strip_prefix("![") {
-            blocks.image(root, img)?;
-        } else if trimmed.starts_with('|') {
-            blocks.table_row(trimmed, lines.get(li + 1));
-        } else {
-            blocks.text(line, trimmed);
-        }
-    }
-    blocks.close_unless("");
-    if !explorer_placed {
-        blocks.body += &explorer.section();
-    }
     Ok(format!(
-        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>volphot report</title><style>{STYLE}</style></head><body>\n{}{}</body></html>\n",
-        blocks.body,
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>volphot report</title><style>{STYLE}</style></head><body>\n{body}{explorer_tail}{}</body></html>\n",
         explorer.script()
     ))
 }

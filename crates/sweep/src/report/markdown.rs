@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use super::Figures;
 use super::collect::{Collected, distinct_values, value_label};
+use super::escape::{md_code, md_prose, md_text};
 use super::table::{Exporter, Field, MarkdownExporter, Table};
 use crate::analyse::METRIC_COLUMNS;
 use crate::plan::{Experiment, Quality};
@@ -80,9 +81,9 @@ impl Report<'_> {
         let (plan, root) = (self.plan, self.out.root());
         let done = self.done();
         let failed = self.failed().len();
-        let _ = writeln!(s, "# {}\n", plan.experiment);
+        let _ = writeln!(s, "# {}\n", md_text(&plan.experiment));
         if !self.experiment.description.is_empty() {
-            let _ = writeln!(s, "{}\n", self.experiment.description.trim());
+            let _ = writeln!(s, "{}\n", md_prose(self.experiment.description.trim()));
         }
         let damaged = self.cells.iter().filter(|c| c.damaged.is_some()).count();
         let _ = writeln!(
@@ -103,11 +104,11 @@ impl Report<'_> {
         );
         let _ = writeln!(
             s,
-            "- experiment file: `{}` (sha256 `{}`)",
-            plan.experiment_file.display(),
+            "- experiment file: {} (sha256 `{}`)",
+            md_code(&plan.experiment_file.display().to_string()),
             plan.experiment_sha256
         );
-        let _ = writeln!(s, "- command: `{}`", plan.command.join(" "));
+        let _ = writeln!(s, "- command: {}", md_code(&plan.command.join(" ")));
         if root.join("tune").join("report.md").is_file() {
             let _ = writeln!(
                 s,
@@ -116,16 +117,19 @@ impl Report<'_> {
         }
         let _ = writeln!(
             s,
-            "- rerun: `sweep {} {}{} --output {}` (finished cells are skipped); regenerate this report: `sweep report {}`\n",
-            if self.experiment.tune.is_some() {
-                "tune"
-            } else {
-                "run"
-            },
-            plan.experiment_file.display(),
-            Quality::from_name(&plan.quality).map_or("", Quality::flag),
-            root.display(),
-            root.display()
+            "- rerun: {} (finished cells are skipped); regenerate this report: {}\n",
+            md_code(&format!(
+                "sweep {} {}{} --output {}",
+                if self.experiment.tune.is_some() {
+                    "tune"
+                } else {
+                    "run"
+                },
+                plan.experiment_file.display(),
+                Quality::from_name(&plan.quality).map_or("", Quality::flag),
+                root.display(),
+            )),
+            md_code(&format!("sweep report {}", root.display()))
         );
     }
 
@@ -136,9 +140,9 @@ impl Report<'_> {
         for axis in &self.plan.axes {
             let values: Vec<String> = distinct_values(cells, axis)
                 .iter()
-                .map(value_label)
+                .map(|v| md_text(&value_label(v)))
                 .collect();
-            let _ = writeln!(s, "- `{axis}`: {}", values.join(", "));
+            let _ = writeln!(s, "- {}: {}", md_code(axis), values.join(", "));
         }
         // What the renders did, not what the plan allowed: an experiment with
         // `share = false` marches every cell alone though its cells share march keys.
@@ -207,7 +211,7 @@ impl Report<'_> {
             let _ = writeln!(
                 s,
                 "| {} | {} | {} | {} |",
-                c.planned.label,
+                md_text(&c.planned.label),
                 e.probes,
                 bound(&e.shadow),
                 bound(&e.multiple)
@@ -224,7 +228,7 @@ impl Report<'_> {
             .iter()
             .filter_map(|c| {
                 let t = c.record.as_ref()?.cache_error.as_ref()?.thinning?;
-                Some((c.planned.label.as_str(), t))
+                Some((md_text(&c.planned.label), t))
             })
             .collect();
         if thinned.is_empty() {
@@ -255,7 +259,7 @@ impl Report<'_> {
         for (layer, pick) in layers {
             let bounds: Vec<_> = thinned
                 .iter()
-                .filter_map(|(label, t)| Some((*label, pick(t)?)))
+                .filter_map(|(label, t)| Some((label.as_str(), pick(t)?)))
                 .collect();
             let worst = |key: fn(&volphot::ErrorBound) -> f64| {
                 bounds
@@ -299,7 +303,7 @@ impl Report<'_> {
         volumes.sort();
         volumes.dedup();
         for v in volumes {
-            let _ = writeln!(s, "- volume: {v}");
+            let _ = writeln!(s, "- volume: {}", md_text(&v));
         }
         let mut refs: Vec<&String> = self
             .cells
@@ -332,6 +336,7 @@ impl Report<'_> {
             }
             let _ = writeln!(s, "\n## {title}\n");
             for (caption, path) in items {
+                let caption = md_text(caption);
                 let _ = writeln!(s, "![{caption}]({})\n\n*{caption}*\n", rel(root, path));
             }
         };
@@ -345,7 +350,7 @@ impl Report<'_> {
         section("Plots", &plots);
         section("Difference images", &self.figures.diffs);
         for (title, t) in &self.figures.comparisons {
-            let _ = writeln!(s, "\n### Comparison {title}\n");
+            let _ = writeln!(s, "\n### Comparison {}\n", md_text(title));
             let _ = writeln!(s, "{}", markdown_table(t, vec![]));
         }
     }
@@ -390,7 +395,7 @@ impl Report<'_> {
                 s,
                 "- cell {} ({}): see `{}`\n\n    {first}\n",
                 c.planned.index,
-                c.planned.label,
+                md_text(&c.planned.label),
                 rel(self.out.root(), &self.out.failure(&c.planned.hash))
             );
         }

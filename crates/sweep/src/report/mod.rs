@@ -5,6 +5,7 @@
 mod chart;
 mod collect;
 mod diffs;
+mod escape;
 mod explorer;
 mod figures;
 mod html;
@@ -21,8 +22,8 @@ pub(crate) use chart::{Plot, Series, write_plot};
 use collect::collect;
 use table::{CsvExporter, Exporter, JsonExporter, Table, cells_table};
 
-use crate::plan::Experiment;
-use crate::store::{OutputDir, clean_stale};
+use crate::plan::{Experiment, Quality};
+use crate::store::{OutputDir, clean_stale, read_plan, recorded_but_absent};
 
 /// Everything a report links to.
 #[derive(Default)]
@@ -63,8 +64,41 @@ fn remove_stale_temporaries(out: &OutputDir) {
     }
 }
 
-/// Builds `cells.csv`, `cells.json`, figures, `report.md` and `report.html`.
+/// A report is rebuilt from the cells' data in the folder. A study committed to git has its
+/// tables but not its `cells/`; rebuilding it there would turn every recorded result into
+/// "pending" and overwrite the tables, sheets and report (issue #45, case 1). So when the
+/// tables record a finished cell that has no data here, nothing is written and the error
+/// says how to get the data back.
+pub(crate) fn refuse_to_lose_recorded_cells(out: &OutputDir) -> Result<()> {
+    let plan = read_plan(out)?;
+    let absent = recorded_but_absent(out, &plan);
+    if absent.is_empty() {
+        return Ok(());
+    }
+    let verb = if out.root().join("tune").is_dir() {
+        "tune"
+    } else {
+        "run"
+    };
+    anyhow::bail!(
+        "{root}: {n} of {total} cells are recorded as done in cells.json, but their data \
+         (cells/<hash>/) are not in this folder (cells {ranges}); a clone of the repository \
+         holds only the tables. Nothing was written. To rebuild this report, render them \
+         again: `sweep {verb} {file}{flag} --output {root}` (the same seeds give the same \
+         images); or, to drop those results, delete cells.csv and cells.json first.",
+        root = out.root().display(),
+        n = absent.len(),
+        total = plan.cells.len(),
+        ranges = crate::backend::compress_ranges(&absent),
+        file = plan.experiment_file.display(),
+        flag = Quality::from_name(&plan.quality).map_or("", Quality::flag),
+    )
+}
+
+/// Builds `cells.csv`, `cells.json`, figures, `report.md` and `report.html`. Refuses, writing
+/// nothing, when the folder's tables record finished cells whose data are not here.
 pub(crate) fn build_report(out: &OutputDir) -> Result<PathBuf> {
+    refuse_to_lose_recorded_cells(out)?;
     remove_stale_temporaries(out);
     let (plan, cells) = collect(out)?;
     let table = cells_table(&plan, &cells);

@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 use anyhow::Result;
 
 use super::collect::Collected;
+use super::escape::md_text;
 use crate::analyse::METRIC_COLUMNS;
 use crate::store::PlanRecord;
 
@@ -116,7 +117,7 @@ impl Exporter for MarkdownExporter {
             s,
             "| {} |",
             cols.iter()
-                .map(|&c| table.headers[c].replace('|', "\\|"))
+                .map(|&c| md_text(&table.headers[c]))
                 .collect::<Vec<_>>()
                 .join(" | ")
         );
@@ -126,7 +127,7 @@ impl Exporter for MarkdownExporter {
                 s,
                 "| {} |",
                 cols.iter()
-                    .map(|&c| row[c].text().replace('|', "\\|"))
+                    .map(|&c| md_text(&row[c].text()))
                     .collect::<Vec<_>>()
                     .join(" | ")
             );

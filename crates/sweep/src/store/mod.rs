@@ -9,6 +9,7 @@
 //! ```
 
 mod address;
+mod archive;
 mod lock;
 mod pool;
 mod records;
@@ -18,6 +19,7 @@ mod verify;
 use std::path::{Path, PathBuf};
 
 pub(crate) use address::{cell_hash, reference_hash, volume_identity};
+pub(crate) use archive::recorded_but_absent;
 pub(crate) use lock::{CellLock, cell_is_locked, lock_folder, lock_reference, try_lock_cell};
 pub(crate) use pool::{ReferencePool, verified_reference};
 pub(crate) use records::*;

@@ -13,7 +13,11 @@ use crate::error::{Error, Result};
 
 /// Reads a `.vp` or `.vp.json` file (chosen by extension).
 pub fn read(path: &Path) -> Result<ColourTransfer> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::util::read_text_capped(
+        path,
+        crate::util::TEXT_INPUT_CAP,
+        "3D Slicer volume property (.vp or .vp.json)",
+    )?;
     let name = path.display().to_string();
     let lower = name.to_ascii_lowercase();
     let parsed = if lower.ends_with(".json") {

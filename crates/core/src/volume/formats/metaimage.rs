@@ -6,7 +6,6 @@
 //! data (`LIST`, file patterns), ASCII data and multi-channel voxels are refused with an error
 //! naming the field. Header parsing and the data-size checks are shared with [`super::nrrd`].
 
-use std::fs::File;
 use std::io::{BufReader, Write};
 use std::path::Path;
 
@@ -88,7 +87,7 @@ pub fn read(path: &Path) -> Result<LoadedVoxels> {
 /// Reads the header's `Key = Value` lines up to `ElementDataFile` (the last one by
 /// definition); returns the other fields, that field, and the bytes consumed.
 fn read_fields(path: &Path) -> Result<(Fields, Field, u64)> {
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let (file, _) = crate::util::open_regular(path, "MetaImage header (.mhd or .mha)")?;
     let mut reader = BufReader::new(file);
     let mut consumed = 0u64;
     let mut fields = Fields::default();
@@ -105,7 +104,16 @@ fn read_fields(path: &Path) -> Result<(Fields, Field, u64)> {
                 path,
                 format!(
                     "line {line_no} {}: expected `Key = Value` (is this a MetaImage header?)",
-                    quoted(text)
+                    // A first line that is not `Key = Value` may be any file: show its first
+                    // bytes only, never its content.
+                    if line_no == 1 {
+                        format!(
+                            "starts `{}`",
+                            crate::util::escaped_prefix(text.as_bytes(), 8)
+                        )
+                    } else {
+                        quoted(text)
+                    }
                 ),
             ));
         };

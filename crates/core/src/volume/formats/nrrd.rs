@@ -82,7 +82,7 @@ pub fn read(path: &Path) -> Result<LoadedVoxels> {
 /// Reads the header's field lines (after the magic) up to the blank line that ends an
 /// attached header; returns the fields, the bytes consumed and whether the blank line came.
 fn read_fields(path: &Path) -> Result<(Fields, u64, bool)> {
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let (file, _) = crate::util::open_regular(path, "NRRD file (.nrrd or .nhdr)")?;
     let mut reader = BufReader::new(file);
     let mut consumed = read_magic(path, &mut reader)?;
     let mut fields = Fields::default();
@@ -808,15 +808,12 @@ impl Payload<'_> {
 /// Reads exactly `expected` voxel bytes as described by `p`.
 pub(super) fn read_payload(p: &Payload<'_>) -> Result<Vec<u8>> {
     let io = |e: std::io::Error| Error::io(p.path, e);
-    let mut file = File::open(p.path).map_err(|e| {
+    let (mut file, _) = crate::util::open_regular(p.path, "volume data file").map_err(|e| {
         if p.path == p.header {
-            Error::io(p.path, e)
+            e
         } else {
             // A detached header names its data file: say which header, and which file.
-            Error::format(
-                p.header,
-                format!("its data file {} cannot be opened: {e}", p.path.display()),
-            )
+            Error::format(p.header, format!("its data file cannot be read: {e}"))
         }
     })?;
     match p.codec {

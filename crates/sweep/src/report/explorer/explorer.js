@@ -668,7 +668,7 @@
   function linkTable() {
     const table = $('cells-table');
     if (!table) return;
-    const header = table.rows[0], body = header.parentElement;
+    const header = table.rows[0], body = table.tBodies[0] || header.parentElement;
     const names = Array.from(header.cells, (c) => c.textContent.trim().toLowerCase());
     for (const tr of Array.from(table.rows).slice(1)) {
       const cell = byIndex.get(+tr.cells[0].textContent);
