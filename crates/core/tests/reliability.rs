@@ -118,3 +118,35 @@ fn a_variant_renders_the_same_alone_and_in_a_shared_march() {
         assert_eq!(together.films[i].film, alone.films[0].film, "variant {i}");
     }
 }
+
+/// A constant volume maps to density 1 (so it is not silently empty) however large its
+/// value: at ±1e30, value − 1 rounds back to the value, and the range of width 0 made
+/// every density NaN (found by the NIfTI header fuzzing, scl_inter = 1e30).
+#[test]
+fn a_constant_volume_of_large_values_is_full_not_nan() {
+    let dir = tempfile::tempdir().unwrap();
+    for value in [1e30f32, -1e30, 3.0e38, 7.0] {
+        let path = dir.path().join("c.raw");
+        let bytes: Vec<u8> = (0..8).flat_map(|_| value.to_le_bytes()).collect();
+        std::fs::write(&path, bytes).unwrap();
+        let volume = volphot::read_volume(&volphot::FileRequest {
+            path,
+            raw_layout: Some(volphot::RawLayout {
+                dims: [2, 2, 2],
+                voxel: VoxelType::F32,
+                byte_order: volphot::ByteOrder::Little,
+                header_bytes: 0,
+            }),
+            placement: None,
+            normalization: Some(Normalization::MinMax),
+            dataset: None,
+            expected_sha256: None,
+        })
+        .unwrap();
+        assert!(
+            volume.grid().values().iter().all(|&d| d == 1.0),
+            "{value}: {:?}",
+            volume.grid().values()
+        );
+    }
+}

@@ -275,7 +275,15 @@ impl Volume {
                     (data_min as f64, data_max as f64)
                 } else {
                     // A constant volume: map its value to 1 so it is not silently empty.
-                    (data_min as f64 - 1.0, data_max as f64)
+                    // Past 2^53, value − 1 rounds back to the value; step down by the
+                    // value's own magnitude there instead, so the range is never empty.
+                    let value = data_min as f64;
+                    let below = if value - 1.0 < value {
+                        value - 1.0
+                    } else {
+                        value - value.abs()
+                    };
+                    (below, value)
                 }
             }
         };
