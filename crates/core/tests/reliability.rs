@@ -150,3 +150,30 @@ fn a_constant_volume_of_large_values_is_full_not_nan() {
         );
     }
 }
+
+/// Voxel sizes whose extent over the dims overflows `f32` are refused, not turned into a
+/// NaN box (found by the NIfTI header fuzzing; any format's spacing reaches this check).
+#[test]
+fn a_spacing_whose_extent_overflows_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.raw");
+    std::fs::write(&path, [1u8; 5]).unwrap();
+    let result = volphot::read_volume(&volphot::FileRequest {
+        path,
+        raw_layout: Some(volphot::RawLayout {
+            dims: [5, 1, 1],
+            voxel: VoxelType::U8,
+            byte_order: volphot::ByteOrder::Little,
+            header_bytes: 0,
+        }),
+        placement: Some(volphot::Placement::Spacing([3e38, 1.0, 1.0])),
+        normalization: None,
+        dataset: None,
+        expected_sha256: None,
+    });
+    let e = match result {
+        Ok(v) => panic!("accepted, with bounds {:?}", v.grid().bounds()),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("`spacing`") && e.contains("[5, 1, 1]"), "{e}");
+}

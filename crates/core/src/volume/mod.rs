@@ -222,7 +222,17 @@ impl Placement {
                 );
                 let extent = size / size.max_element();
                 let min = Vec3::splat(0.5) - extent * 0.5;
-                Ok(Aabb::new(min, min + extent))
+                let max = min + extent;
+                // Huge sizes overflow the extent to ∞ (a NaN box); wildly unequal ones
+                // flatten a side to nothing once the longest is scaled to 1.
+                if !(size.is_finite() && max.cmpgt(min).all()) {
+                    return Err(Error::parameter(
+                        "spacing",
+                        format!("{s:?} over dims {dims:?}"),
+                        "voxel sizes whose extent over the dims is finite, with every side still > 0 once the longest is scaled to 1",
+                    ));
+                }
+                Ok(Aabb::new(min, max))
             }
         }
     }
