@@ -359,7 +359,7 @@ impl Volume {
 /// A request to load a volume from a file with everything a headerless RAW file lacks.
 #[derive(Debug, Clone)]
 pub struct FileRequest {
-    /// The file (`.raw`, `.nrrd`, `.nhdr`, `.mhd`, `.mha`, `.nii`, `.nii.gz`).
+    /// The file (`.raw`, `.nrrd`, `.nhdr`, `.mhd`, `.mha`, `.nii`, `.nii.gz`, `.hdr`).
     pub path: PathBuf,
     /// Layout for RAW files (ignored for header formats, which carry their own).
     pub raw_layout: Option<RawLayout>,
