@@ -123,3 +123,4 @@ pub fn relative_rmse(a: &[glam::Vec3], b: &[glam::Vec3]) -> f64 {
 }
 
 pub mod dicom;
+pub mod nifti;

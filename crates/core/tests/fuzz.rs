@@ -1,7 +1,8 @@
-//! Property-based tests of every file parser of the core: RAW layouts, NRRD, MetaImage, PGM
-//! transfer functions and scene TOML. Generated inputs mix valid and invalid pieces of each
-//! format; for every case the parser must return within a time bound, must not panic, and
-//! a rejection must name its file (and, for scenes, the line and column or the key).
+//! Property-based tests of every file parser of the core: RAW layouts, NRRD, MetaImage,
+//! NIfTI-1 headers, PGM transfer functions and scene TOML. Generated inputs mix valid and
+//! invalid pieces of each format; for every case the parser must return within a time
+//! bound, must not panic, and a rejection must name its file (and, for scenes, the line and
+//! column or the key).
 //!
 //! CI runs a few thousand cases per parser; the long run (`cargo test --release -p
 //! volphot-core --test fuzz -- --ignored`) runs 100 000 each.
@@ -13,6 +14,7 @@ use std::time::Duration;
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
+use volphot::test_util::nifti::Nifti1;
 use volphot::{
     ByteOrder, FileRequest, Normalization, RawLayout, Scene, SearchPath, TransferFunction,
     VoxelType, read_metaimage, read_nrrd, read_volume,
@@ -34,8 +36,8 @@ enum Verdict {
 
 /// Runs `check` on each generated case in a thread of its own, failing a case that
 /// panics, hangs past [`BOUND`] or is rejected with an error that does not say where.
-/// Prints how many cases were accepted and rejected.
-fn fuzz<S, F>(name: &str, cases: u32, strategy: S, check: F)
+/// Prints and returns how many cases were accepted and rejected.
+fn fuzz<S, F>(name: &str, cases: u32, strategy: S, check: F) -> (u32, u32)
 where
     S: Strategy,
     S::Value: Clone + std::fmt::Debug + Send + 'static,
@@ -78,12 +80,14 @@ where
     if let Err(e) = result {
         panic!("{e}");
     }
+    let counts = (accepted.into_inner(), rejected.into_inner());
     let _ = writeln!(
         std::io::stderr().lock(),
         "fuzz {name}: {cases} cases, {} accepted, {} rejected with a located error, 0 panics, 0 hangs",
-        accepted.into_inner(),
-        rejected.into_inner()
+        counts.0,
+        counts.1
     );
+    counts
 }
 
 /// A rejection must name the file (or, for a bad parameter of the request, its key).
@@ -715,4 +719,293 @@ fn fuzz_scene_files() {
 #[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
 fn fuzz_scene_files_long() {
     fuzz("scene_files", LONG_CASES, scene_case(), check_scene);
+}
+
+// --- NIfTI-1 headers -----------------------------------------------------------------------
+
+/// Counts the largest single allocation of each thread, so a NIfTI case can show that no
+/// header, whatever it claims, makes the reader allocate 1 GB or more (the memory budget
+/// alone would allow several GB on this machine).
+struct TrackingAllocator;
+
+thread_local! {
+    static LARGEST_ALLOCATION: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+fn note_allocation(size: usize) {
+    // `try_with`: allocations during thread teardown find no thread-local, and are not ours.
+    let _ = LARGEST_ALLOCATION.try_with(|largest| largest.set(largest.get().max(size)));
+}
+
+// SAFETY: every call is passed on unchanged to the system allocator; only sizes are noted.
+unsafe impl std::alloc::GlobalAlloc for TrackingAllocator {
+    unsafe fn alloc(&self, layout: std::alloc::Layout) -> *mut u8 {
+        note_allocation(layout.size());
+        unsafe { std::alloc::System.alloc(layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: std::alloc::Layout) -> *mut u8 {
+        note_allocation(layout.size());
+        unsafe { std::alloc::System.alloc_zeroed(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: std::alloc::Layout) {
+        unsafe { std::alloc::System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: std::alloc::Layout, size: usize) -> *mut u8 {
+        note_allocation(size);
+        unsafe { std::alloc::System.realloc(ptr, layout, size) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: TrackingAllocator = TrackingAllocator;
+
+/// The most a NIfTI case may allocate at once.
+const ALLOCATION_LIMIT: usize = 1 << 30;
+
+/// NIfTI-1 datatype codes with their bits per voxel: the ten read, then the ones refused.
+const NIFTI_TYPES: [(i16, i16); 17] = [
+    (2, 8),
+    (256, 8),
+    (512, 16),
+    (4, 16),
+    (768, 32),
+    (8, 32),
+    (1280, 64),
+    (1024, 64),
+    (16, 32),
+    (64, 64),
+    (0, 0),
+    (1, 1),
+    (32, 64),
+    (128, 24),
+    (1536, 128),
+    (1792, 128),
+    (2304, 32),
+];
+
+#[derive(Debug, Clone)]
+struct NiftiCase {
+    header: Nifti1,
+    /// Bytes added (> 0) or removed (< 0) after the voxels the header claims.
+    data_delta: i64,
+    gzip: bool,
+    /// Cut the written file to this many 256ths of its length.
+    cut: Option<u8>,
+}
+
+fn nifti_float(usual: BoxedStrategy<f32>) -> BoxedStrategy<f32> {
+    prop_oneof![
+        8 => usual,
+        1 => prop::sample::select(vec![0.0, -1.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e30, 1e-30]),
+        1 => any::<f32>(),
+    ]
+    .boxed()
+}
+
+fn nifti_dim() -> impl Strategy<Value = [i16; 8]> {
+    let size = prop_oneof![8 => 1i16..6, 1 => any::<i16>(), 1 => Just(i16::MAX)];
+    let rank = prop_oneof![8 => 1i16..=4, 1 => any::<i16>()];
+    let extra = prop_oneof![8 => Just(1i16), 1 => -1i16..3];
+    (
+        rank,
+        [size.clone(), size.clone(), size],
+        extra.clone(),
+        extra,
+    )
+        .prop_map(|(rank, [x, y, z], t, u)| [rank, x, y, z, t, u, 1, 1])
+}
+
+fn nifti_type() -> impl Strategy<Value = (i16, i16)> {
+    prop_oneof![
+        12 => prop::sample::select(NIFTI_TYPES[..10].to_vec()),
+        2 => prop::sample::select(NIFTI_TYPES[10..].to_vec()),
+        1 => (any::<i16>(), any::<i16>()),
+        1 => (prop::sample::select(NIFTI_TYPES.to_vec()), prop::sample::select(vec![0i16, 8, 16, 24, 32, 64, -8])).prop_map(|((code, _), bits)| (code, bits)),
+    ]
+}
+
+fn nifti_offset() -> BoxedStrategy<f32> {
+    nifti_float(prop_oneof![6 => Just(352.0f32), 2 => (22u32..200).prop_map(|n| (16 * n) as f32), 1 => Just(348.0), 1 => Just(352.5)].boxed())
+}
+
+fn nifti_header() -> impl Strategy<Value = Nifti1> {
+    let spacing = nifti_float((1u8..40).prop_map(|n| f32::from(n) / 10.0).boxed());
+    let magic = prop_oneof![12 => Just(*b"n+1\0"), 1 => Just(*b"ni1\0"), 1 => any::<[u8; 4]>()];
+    let sizeof_hdr = prop_oneof![12 => Just(348), 1 => Just(540), 1 => any::<i32>()];
+    let codes = prop_oneof![4 => Just([0i16, 0]), 2 => Just([1, 0]), 2 => Just([0, 1]), 1 => any::<[i16; 2]>()];
+    let unit = nifti_float(Just(0.0f32).boxed());
+    let scl = (
+        nifti_float(prop_oneof![Just(1.0f32), Just(0.0), Just(0.5)].boxed()),
+        nifti_float(Just(0.0f32).boxed()),
+    );
+    (
+        (
+            sizeof_hdr,
+            nifti_dim(),
+            nifti_type(),
+            [spacing.clone(), spacing.clone(), spacing.clone(), spacing],
+        ),
+        (
+            nifti_offset(),
+            scl,
+            codes,
+            [unit.clone(), unit.clone(), unit],
+        ),
+        (magic, any::<bool>()),
+    )
+        .prop_map(
+            |(
+                (sizeof_hdr, dim, (datatype, bitpix), [qfac, dx, dy, dz]),
+                (vox_offset, (slope, inter), codes, quatern),
+                (magic, big_endian),
+            )| {
+                let srow = [
+                    [dx, 0.0, 0.0, 0.0],
+                    [0.0, dy, 0.0, 0.0],
+                    [0.0, 0.0, dz, 0.0],
+                ];
+                Nifti1 {
+                    sizeof_hdr,
+                    dim,
+                    datatype,
+                    bitpix,
+                    pixdim: [qfac.signum(), dx, dy, dz, 0.0, 0.0, 0.0, 0.0],
+                    vox_offset,
+                    scl: [slope, inter],
+                    codes,
+                    quatern,
+                    srow,
+                    magic,
+                    big_endian,
+                }
+            },
+        )
+}
+
+fn nifti_case() -> impl Strategy<Value = NiftiCase> {
+    (
+        nifti_header(),
+        prop_oneof![8 => Just(0i64), 1 => -60i64..60],
+        any::<bool>(),
+        prop_oneof![8 => Just(None), 1 => any::<u8>().prop_map(Some)],
+    )
+        .prop_map(|(header, data_delta, gzip, cut)| NiftiCase {
+            header,
+            data_delta,
+            gzip,
+            cut,
+        })
+}
+
+/// Voxels the header claims, if its dims are sane enough to say.
+fn claimed_voxels(h: &Nifti1) -> Option<u64> {
+    let rank = usize::try_from(h.dim[0])
+        .ok()
+        .filter(|r| (1..=7).contains(r))?;
+    h.dim[1..=rank]
+        .iter()
+        .try_fold(1u64, |n, &d| n.checked_mul(u64::try_from(d).ok()?))
+}
+
+/// The bytes of a case: its header, the voxels it claims (when that is under 1 MiB, a
+/// few bytes otherwise) give or take `data_delta`, gzipped or not, maybe cut.
+fn nifti_bytes(c: &NiftiCase) -> Vec<u8> {
+    let claimed = claimed_voxels(&c.header)
+        .and_then(|n| n.checked_mul(u64::try_from(c.header.bitpix).ok()? / 8))
+        .filter(|&n| n < 1 << 20)
+        .unwrap_or(64);
+    let length = (claimed as i64 + c.data_delta).max(0) as usize;
+    let data: Vec<u8> = (0..length)
+        .map(|i| (i as u8).wrapping_mul(31).wrapping_add(7))
+        .collect();
+    let mut bytes = c.header.file(&data);
+    if c.gzip {
+        bytes = gzip(&bytes);
+    }
+    if let Some(cut) = c.cut {
+        bytes.truncate(bytes.len() * usize::from(cut) / 256);
+    }
+    bytes
+}
+
+fn check_nifti(dir: &Path, c: NiftiCase) -> Result<Verdict, String> {
+    let name = if c.gzip { "v.nii.gz" } else { "v.nii" };
+    let path = dir.join(format!("{}-{name}", std::process::id()));
+    write(&path, &nifti_bytes(&c));
+    let request = FileRequest {
+        path: path.clone(),
+        raw_layout: None,
+        placement: None,
+        normalization: None,
+        dataset: None,
+        expected_sha256: None,
+    };
+    LARGEST_ALLOCATION.with(|largest| largest.set(0));
+    let result = read_volume(&request);
+    let largest = LARGEST_ALLOCATION.with(|largest| largest.get());
+    if largest >= ALLOCATION_LIMIT {
+        return Err(format!("{largest} bytes allocated at once for {c:?}"));
+    }
+    match result {
+        Ok(v) => {
+            let b = v.grid().bounds();
+            let densities_ok = v
+                .grid()
+                .values()
+                .iter()
+                .all(|d| d.is_finite() && (0.0..=1.0).contains(d));
+            if densities_ok && b.min.is_finite() && b.max.is_finite() && b.max.cmpgt(b.min).all() {
+                Ok(Verdict::Accepted)
+            } else {
+                Err(format!(
+                    "densities outside [0, 1] or a degenerate box {b:?} accepted from {c:?}"
+                ))
+            }
+        }
+        Err(e) => {
+            let text = e.to_string();
+            if over_budget(&c) && !text.contains("refusing") {
+                return Err(format!(
+                    "a claim over the memory budget refused otherwise: {text}"
+                ));
+            }
+            named(Err(e), &path)
+        }
+    }
+}
+
+/// Whether an intact, otherwise readable header claims more working memory than the
+/// budget (12 bytes a voxel), so the memory check must be what refuses it.
+fn over_budget(c: &NiftiCase) -> bool {
+    let h = &c.header;
+    let intact = c.cut.is_none() && h.sizeof_hdr == 348 && h.magic == *b"n+1\0";
+    let rank_ok = (1..=7).contains(&h.dim[0]);
+    let sizes_ok = rank_ok && h.dim[1..=h.dim[0] as usize].iter().all(|&d| d >= 1);
+    let one_volume = rank_ok && h.dim[4..=h.dim[0].max(3) as usize].iter().all(|&d| d <= 1);
+    intact
+        && sizes_ok
+        && one_volume
+        && claimed_voxels(h).is_some_and(|n| n.saturating_mul(12) > volphot::memory_budget_bytes())
+}
+
+fn fuzz_nifti(cases: u32) {
+    let (accepted, rejected) = fuzz("nifti_headers", cases, nifti_case(), check_nifti);
+    assert!(
+        accepted > 0 && rejected > 0,
+        "{accepted} accepted, {rejected} rejected: the cases must exercise both"
+    );
+}
+
+#[test]
+fn fuzz_nifti_headers() {
+    fuzz_nifti(CI_CASES);
+}
+
+#[test]
+#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+fn fuzz_nifti_headers_long() {
+    fuzz_nifti(LONG_CASES);
 }

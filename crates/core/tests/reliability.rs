@@ -215,3 +215,62 @@ fn a_foreign_file_as_metaimage_header_is_not_quoted() {
         "{err}"
     );
 }
+
+/// A constant volume maps to density 1 (so it is not silently empty) however large its
+/// value: at ±1e30, value − 1 rounds back to the value, and the range of width 0 made
+/// every density NaN (found by the NIfTI header fuzzing, scl_inter = 1e30).
+#[test]
+fn a_constant_volume_of_large_values_is_full_not_nan() {
+    let dir = tempfile::tempdir().unwrap();
+    for value in [1e30f32, -1e30, 3.0e38, 7.0] {
+        let path = dir.path().join("c.raw");
+        let bytes: Vec<u8> = (0..8).flat_map(|_| value.to_le_bytes()).collect();
+        std::fs::write(&path, bytes).unwrap();
+        let volume = volphot::read_volume(&volphot::FileRequest {
+            path,
+            raw_layout: Some(volphot::RawLayout {
+                dims: [2, 2, 2],
+                voxel: VoxelType::F32,
+                byte_order: volphot::ByteOrder::Little,
+                header_bytes: 0,
+            }),
+            placement: None,
+            normalization: Some(Normalization::MinMax),
+            dataset: None,
+            expected_sha256: None,
+        })
+        .unwrap();
+        assert!(
+            volume.grid().values().iter().all(|&d| d == 1.0),
+            "{value}: {:?}",
+            volume.grid().values()
+        );
+    }
+}
+
+/// Voxel sizes whose extent over the dims overflows `f32` are refused, not turned into a
+/// NaN box (found by the NIfTI header fuzzing; any format's spacing reaches this check).
+#[test]
+fn a_spacing_whose_extent_overflows_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.raw");
+    std::fs::write(&path, [1u8; 5]).unwrap();
+    let result = volphot::read_volume(&volphot::FileRequest {
+        path,
+        raw_layout: Some(volphot::RawLayout {
+            dims: [5, 1, 1],
+            voxel: VoxelType::U8,
+            byte_order: volphot::ByteOrder::Little,
+            header_bytes: 0,
+        }),
+        placement: Some(volphot::Placement::Spacing([3e38, 1.0, 1.0])),
+        normalization: None,
+        dataset: None,
+        expected_sha256: None,
+    });
+    let e = match result {
+        Ok(v) => panic!("accepted, with bounds {:?}", v.grid().bounds()),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("`spacing`") && e.contains("[5, 1, 1]"), "{e}");
+}

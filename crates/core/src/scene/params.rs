@@ -30,7 +30,7 @@ pub struct VolumeParams {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dataset: Option<String>,
     /// A file path, relative to the scene file (`.raw`, `.nrrd`, `.nhdr`, `.mhd`, `.mha`,
-    /// `.nii`, `.nii.gz`).
+    /// `.nii`, `.nii.gz`, or a NIfTI pair's `.hdr`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub file: Option<PathBuf>,
     /// A DICOM series: a folder (searched recursively) or a list of files, relative to the

@@ -222,7 +222,17 @@ impl Placement {
                 );
                 let extent = size / size.max_element();
                 let min = Vec3::splat(0.5) - extent * 0.5;
-                Ok(Aabb::new(min, min + extent))
+                let max = min + extent;
+                // Huge sizes overflow the extent to ∞ (a NaN box); wildly unequal ones
+                // flatten a side to nothing once the longest is scaled to 1.
+                if !(size.is_finite() && max.cmpgt(min).all()) {
+                    return Err(Error::parameter(
+                        "spacing",
+                        format!("{s:?} over dims {dims:?}"),
+                        "voxel sizes whose extent over the dims is finite, with every side still > 0 once the longest is scaled to 1",
+                    ));
+                }
+                Ok(Aabb::new(min, max))
             }
         }
     }
@@ -275,7 +285,15 @@ impl Volume {
                     (data_min as f64, data_max as f64)
                 } else {
                     // A constant volume: map its value to 1 so it is not silently empty.
-                    (data_min as f64 - 1.0, data_max as f64)
+                    // Past 2^53, value − 1 rounds back to the value; step down by the
+                    // value's own magnitude there instead, so the range is never empty.
+                    let value = data_min as f64;
+                    let below = if value - 1.0 < value {
+                        value - 1.0
+                    } else {
+                        value - value.abs()
+                    };
+                    (below, value)
                 }
             }
         };
@@ -341,7 +359,7 @@ impl Volume {
 /// A request to load a volume from a file with everything a headerless RAW file lacks.
 #[derive(Debug, Clone)]
 pub struct FileRequest {
-    /// The file (`.raw`, `.nrrd`, `.nhdr`, `.mhd`, `.mha`, `.nii`, `.nii.gz`).
+    /// The file (`.raw`, `.nrrd`, `.nhdr`, `.mhd`, `.mha`, `.nii`, `.nii.gz`, `.hdr`).
     pub path: PathBuf,
     /// Layout for RAW files (ignored for header formats, which carry their own).
     pub raw_layout: Option<RawLayout>,

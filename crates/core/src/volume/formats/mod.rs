@@ -1,8 +1,9 @@
-//! Volume file formats: headerless RAW, NRRD (attached or detached, raw or gzip) and
-//! MetaImage (`.mhd`/`.mha`, raw or zlib), NIfTI-1 (`.nii`, `.nii.gz`) and DICOM series
-//! (a folder or a list of files, read separately by [`read_dicom_series`]). Each reader returns [`LoadedVoxels`] — raw values
-//! with their type, spacing and data file — after checking the voxel count against the
-//! memory budget ([`check_dims`]) and before anything is normalised.
+//! Volume file formats: headerless RAW, NRRD (attached or detached, raw or gzip),
+//! MetaImage (`.mhd`/`.mha`, raw or zlib), NIfTI-1 (`.nii` or a `.hdr`/`.img` pair, gzipped
+//! or not) and DICOM series (a folder or a list of files, read separately by
+//! [`read_dicom_series`]). Each reader returns [`LoadedVoxels`] — raw values with their
+//! type, spacing and data file — after checking the voxel count against the memory budget
+//! ([`check_dims`]) and before anything is normalised.
 
 mod dicom;
 mod metaimage;
@@ -79,12 +80,13 @@ impl Acquisition {
 }
 
 /// Reads the voxels of a volume file, choosing the reader by extension (`.nrrd`/`.nhdr`,
-/// `.mhd`/`.mha`; anything else is headerless RAW and needs `raw_layout`).
+/// `.mhd`/`.mha`, `.nii`/`.hdr` with or without `.gz`; anything else is headerless RAW and
+/// needs `raw_layout`).
 pub fn read_voxels(path: &Path, raw_layout: Option<&RawLayout>) -> Result<LoadedVoxels> {
     if path.is_dir() {
         return Err(Error::format(
             path,
-            "is a directory; expected a volume file (.raw, .nrrd, .nhdr, .mhd or .mha)",
+            "is a directory; expected a volume file (.raw, .nrrd, .nhdr, .mhd, .mha, .nii or .hdr)",
         ));
     }
     let ext = path
