@@ -3,6 +3,7 @@
 //! * `runs` — experiments, reports, resuming, locking, errors, `sweep render`;
 //! * `reliability` — inputs and events that used to hang, exhaust memory or mislead;
 //! * `faults` — runs killed at many moments, damaged cells, a full file system;
+//! * `figures` — the report's plots draw what the cells say, with their data beside them;
 //! * `import` — the thesis's pbrt-v1 scenes through `sweep import`;
 //! * `medical` — a DICOM folder with a Slicer preset, and a broken series;
 //! * `claims` — the thesis's findings that the committed studies reproduce, on small grids;
@@ -16,6 +17,7 @@
 mod browser;
 mod claims;
 mod faults;
+mod figures;
 mod import;
 mod medical;
 mod peer;

@@ -18,6 +18,13 @@ fn ratio(a: f64, b: f64) -> Option<f64> {
     (b > 0.0).then(|| a / b)
 }
 
+/// A value that only exists where multiple scattering was rendered: the share of the
+/// multiple layer, the disco-ball scores of that layer. Without it they are undefined, not 0
+/// (a 0 averaged into a plot halved the share, issue #49).
+fn with_multiple(r: &CellRecord, value: f64) -> Option<f64> {
+    r.provenance.scene.integrator.multiple.then_some(value)
+}
+
 fn extent_pct(r: &CellRecord, d: f64) -> f64 {
     100.0 * d / r.provenance.sigma.largest_extent as f64
 }
@@ -34,9 +41,17 @@ pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
         header: "time_tree [s]",
         value: |r, _| Some(r.timings.tree_build),
     },
+    // A march shared by several cells (variants of nused, maxdist, … rendered in one pass)
+    // is timed once: each cell is attributed an equal share, and the march's whole time is
+    // its own column, so summing `time_render` over a study gives the time it took.
     MetricColumn {
         key: "time_render",
         header: "time_render [s]",
+        value: |r, _| Some(r.timings.render / r.timings.march_shared_by.max(1) as f64),
+    },
+    MetricColumn {
+        key: "time_march",
+        header: "time_march [s]",
         value: |r, _| Some(r.timings.render),
     },
     MetricColumn {
@@ -101,7 +116,7 @@ pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
     MetricColumn {
         key: "mean_multiple",
         header: "mean_multiple [W/(m2 sr)]",
-        value: |r, _| Some(r.mean_multiple),
+        value: |r, _| with_multiple(r, r.mean_multiple),
     },
     MetricColumn {
         key: "mean_emission",
@@ -113,7 +128,7 @@ pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
         header: "ms_share [1]",
         value: |r, _| {
             let total = r.mean_single + r.mean_multiple + r.mean_emission;
-            (total > 0.0).then(|| r.mean_multiple / total)
+            with_multiple(r, r.mean_multiple / total).filter(|_| total > 0.0)
         },
     },
     MetricColumn {
@@ -164,7 +179,7 @@ pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
     MetricColumn {
         key: "lit_by_multiple",
         header: "lit_by_multiple [1]",
-        value: |r, _| Some(r.image.lit_by_multiple),
+        value: |r, _| with_multiple(r, r.image.lit_by_multiple),
     },
     MetricColumn {
         key: "depth_corr_single",
@@ -211,27 +226,27 @@ pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
     MetricColumn {
         key: "disco_excess",
         header: "disco_excess [1]",
-        value: |_, m| m.map(|m| m.disco_excess),
+        value: |r, m| with_multiple(r, m?.disco_excess),
     },
     MetricColumn {
         key: "disco_excess_blobs",
         header: "disco_excess_blobs [count]",
-        value: |_, m| m.map(|m| m.disco_excess_blobs as f64),
+        value: |r, m| with_multiple(r, m?.disco_excess_blobs as f64),
     },
     MetricColumn {
         key: "disco_energy",
         header: "disco_energy [1]",
-        value: |r, _| Some(r.disco.energy),
+        value: |r, _| with_multiple(r, r.disco.energy),
     },
     MetricColumn {
         key: "disco_blobs",
         header: "disco_blobs [count]",
-        value: |r, _| Some(r.disco.blobs as f64),
+        value: |r, _| with_multiple(r, r.disco.blobs as f64),
     },
     MetricColumn {
         key: "disco_area",
         header: "disco_area [1]",
-        value: |r, _| Some(r.disco.area),
+        value: |r, _| with_multiple(r, r.disco.area),
     },
     MetricColumn {
         key: "thinning_bias_single",
@@ -246,12 +261,12 @@ pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
     MetricColumn {
         key: "thinning_bias_multiple",
         header: "thinning_bias_multiple [1]",
-        value: |r, _| thinning(r, |t| t.multiple).map(|b| b.mean),
+        value: |r, _| with_multiple(r, thinning(r, |t| t.multiple)?.mean),
     },
     MetricColumn {
         key: "thinning_p99_multiple",
         header: "thinning_p99_multiple [1]",
-        value: |r, _| thinning(r, |t| t.multiple).map(|b| b.p99),
+        value: |r, _| with_multiple(r, thinning(r, |t| t.multiple)?.p99),
     },
 ];
 

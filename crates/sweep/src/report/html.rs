@@ -31,7 +31,7 @@ fn escape(t: &str) -> String {
 /// The clickable points over a plot image: an SVG with the plot's geometry, one circle per
 /// drawn point carrying the plan indices of its cells.
 fn plot_points(plot: &PlotFigure) -> String {
-    let (w, h) = super::chart::PLOT_SIZE;
+    let (w, h) = plot.size;
     let mut svg =
         format!("<svg class=\"plot-points\" viewBox=\"0 0 {w} {h}\" preserveAspectRatio=\"none\">");
     for p in &plot.points {

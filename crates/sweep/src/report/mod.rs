@@ -18,7 +18,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
-pub(crate) use chart::{Plot, Series, write_plot};
+pub(crate) use chart::{Panel, Plot, Point, Series, write_plot};
 use collect::collect;
 use table::{CsvExporter, Exporter, JsonExporter, Table, cells_table};
 
@@ -37,8 +37,10 @@ pub(crate) struct Figures {
 /// A plot whose points open their cells in the explorer.
 pub(crate) struct PlotFigure {
     caption: String,
-    /// The PNG (the SVG beside it has the same geometry).
+    /// The PNG (the SVG beside it has the same geometry, the CSV its numbers).
     path: PathBuf,
+    /// The image's width and height in pixels.
+    size: (u32, u32),
     points: Vec<PlotPoint>,
 }
 

@@ -14,7 +14,7 @@ use super::hyperband::{bracket_renders, schedule};
 use super::search::Evaluation;
 use crate::plan::Experiment;
 use crate::plan::{Budget, ParamKind, Proposal, TuneSpec};
-use crate::report::{Plot, Series, write_plot};
+use crate::report::{Panel, Plot, Point, Series, write_plot};
 use crate::store::OutputDir;
 
 /// What the search did.
@@ -209,8 +209,15 @@ fn plot_front(
         });
         Series {
             name: name.into(),
-            points: sorted.iter().map(|e| (e.seconds, e.error)).collect(),
-            cells: sorted.iter().map(|e| e.cells.clone()).collect(),
+            points: sorted
+                .iter()
+                .map(|e| Point {
+                    x: e.seconds,
+                    y: e.error,
+                    spread: None,
+                    cells: e.cells.clone(),
+                })
+                .collect(),
             points_only,
         }
     };
@@ -220,10 +227,13 @@ fn plot_front(
         title: format!("Pareto front: {objective} against render time ({w}×{h})"),
         x_label: "render seconds per frame (predicted at the target resolution)".into(),
         y_label: objective,
-        series: vec![
-            series("evaluated at the target level", top, true),
-            series("Pareto front", front, false),
-        ],
+        panels: vec![Panel {
+            title: String::new(),
+            series: vec![
+                series("evaluated at the target level", top, true),
+                series("Pareto front", front, false),
+            ],
+        }],
         log_x: spread(top.iter().map(|e| e.seconds)) > 20.0,
         log_y: spread(top.iter().map(|e| e.error)) > 20.0,
     };
