@@ -62,11 +62,13 @@ pub enum Skip {
     NoImage,
 }
 
-/// Reads the header of one file: its frames, or why it is no image.
+/// Reads the header of one file: its frames, or why it is no image. Only a regular file
+/// is opened (a FIFO would block, a device never end): anything else is an error naming it.
 pub fn scan(path: &Path) -> Result<std::result::Result<Vec<SliceHeader>, Skip>> {
+    let (file, _) = crate::util::open_regular(path, "DICOM file")?;
     let obj: DefaultDicomObject = match OpenFileOptions::new()
         .read_until(tags::PIXEL_DATA)
-        .open_file(path)
+        .from_reader(file)
     {
         Ok(o) => o,
         Err(e) => return Ok(Err(Skip::NotDicom(e.to_string()))),
