@@ -78,17 +78,25 @@ pub fn read_series(
     let [rows, cols] = slices[0].size;
     let mut dims = [cols as usize, rows as usize, slices.len()];
     let count = check_dims(&anchor, dims)?;
+    // The resampled size is checked before anything is decoded or allocated.
+    let resampled = match &positions {
+        assemble::Positions::Irregular(z) => {
+            let count = assemble::resampled_count(&slices, z, axes.spacing[2])?;
+            check_dims(&anchor, [dims[0], dims[1], count])?;
+            Some((z, count))
+        }
+        assemble::Positions::Regular => None,
+    };
     let mut values = vec![0.0f32; count];
     let sha256 = decode::decode_into(&slices, &mut values)?;
-    if let assemble::Positions::Irregular(z) = &positions {
+    if let Some((z, count)) = resampled {
         let plane = dims[0] * dims[1];
-        let (resampled, count) = assemble::resample_slices(&values, plane, z, axes.spacing[2]);
-        check_dims(&anchor, [dims[0], dims[1], count])?;
+        values = assemble::resample_slices(&values, plane, z, axes.spacing[2], count);
         choice += &format!(
             "; RESAMPLED: {} irregularly spaced slices interpolated linearly onto {count} slices {:.4} mm apart",
             dims[2], axes.spacing[2]
         );
-        (values, dims[2]) = (resampled, count);
+        dims[2] = count;
     }
     let (map, orientation) = axes.grid_map();
     let (values, dims) = reorient(values, dims, &map);
