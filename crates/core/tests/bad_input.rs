@@ -43,6 +43,7 @@ fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
 }
 
 use volphot::test_util::SMALL_SCENE as SCENE;
+use volphot::test_util::dicom::{SliceSpec, write_slice};
 
 /// Parses, validates and builds a scene from text; returns the located error.
 fn scene(dir: &Path, text: &str) -> Result<(), String> {
@@ -53,9 +54,67 @@ fn scene(dir: &Path, text: &str) -> Result<(), String> {
         .map_err(|e| e.to_string())
 }
 
+/// Writes 2×2 slices `ct/s0.dcm`, `ct/s1.dcm`, … of one series at positions `z` (mm along
+/// the normal), each edited by `edit`, and loads a scene reading them with `extra` in
+/// `[volume]`; returns the located error.
+fn dicom_scene(d: &Path, z: &[f64], edit: fn(&mut SliceSpec), extra: &str) -> Result<(), String> {
+    let ct = d.join("ct");
+    std::fs::create_dir(&ct).unwrap();
+    for (p, at) in z.iter().enumerate() {
+        let mut spec = SliceSpec::ct("2.25.60", &format!("2.25.60.{p}"), *at, [2, 2]);
+        edit(&mut spec);
+        write_slice(&ct.join(format!("s{p}.dcm")), &spec, &[0; 4]).unwrap();
+    }
+    scene(
+        d,
+        &format!("[volume]\ndicom = \"ct\"\n{extra}[three_point]\n"),
+    )
+}
+
 fn cases() -> Vec<Case> {
     let s = |name, run: Loader, expect| Case { name, run, expect };
     vec![
+        // --- DICOM: the error names the DICOM file and its field, not the scene ---
+        s(
+            "dicom: PixelSpacing 0",
+            Box::new(|d| dicom_scene(d, &[0.0, 1.0, 2.0], |s| s.pixel_spacing = [0.0; 2], "")),
+            &[
+                "/ct/s",
+                ".dcm",
+                "PixelSpacing (0028,0030) is [0, 0]",
+                "positive",
+            ],
+        ),
+        s(
+            "dicom: negative PixelSpacing",
+            Box::new(|d| dicom_scene(d, &[0.0, 1.0, 2.0], |s| s.pixel_spacing = [-0.75, 0.5], "")),
+            &[
+                "/ct/s",
+                ".dcm",
+                "PixelSpacing (0028,0030) is [-0.75, 0.5]",
+                "positive",
+            ],
+        ),
+        s(
+            "dicom: slices 1e300 mm apart",
+            Box::new(|d| dicom_scene(d, &[0.0, 1e300], |_| {}, "")),
+            &[
+                "/ct/s0.dcm",
+                "/ct/s1.dcm",
+                "ImagePositionPatient (0020,0032)",
+                "1e300 mm",
+            ],
+        ),
+        s(
+            "dicom: resampling onto 1e300 slices",
+            Box::new(|d| dicom_scene(d, &[0.0, 1.0, 2.0, 1e300], |_| {}, "resample = true\n")),
+            &[
+                "/ct/s0.dcm",
+                "/ct/s3.dcm",
+                "ImagePositionPatient (0020,0032)",
+                "resample",
+            ],
+        ),
         // --- RAW ---
         s(
             "raw: truncated file",

@@ -568,3 +568,191 @@ fn load_cost_of_a_512_slice_series_against_raw() {
         dicom_s / raw_s
     );
 }
+
+// --- The folder walk: symbolic links, special files, each file once, bounds ---
+
+/// Longer than any of these tiny loads may take: past it a load counts as a hang, and the
+/// test fails instead of blocking CI (a generous guard, not a timing assertion).
+const HANG: std::time::Duration = std::time::Duration::from_secs(30);
+
+/// Reads `input` on a thread of its own; a hang fails the test after [`HANG`].
+fn read_guarded(input: DicomInput) -> volphot::Result<LoadedVoxels> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let shown = format!("{input:?}");
+    std::thread::spawn(move || {
+        let _ = tx.send(read_dicom_series(&input, None, false).map(|(v, _)| v));
+    });
+    match rx.recv_timeout(HANG) {
+        Ok(result) => result,
+        Err(_) => panic!("no answer within {HANG:?} (a hang) reading {shown}"),
+    }
+}
+
+/// A folder holding three slices (IM0003, IM0010, IM0017) of series 2.25.40, 1 mm apart.
+fn three_slices() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    write_series(dir.path(), "2.25.40", 3, 1.0, |_, _| {});
+    dir
+}
+
+/// Loads the folder (guarded), checks it is the three slices read once each and returns
+/// the record's account of how the series was chosen (where skipped entries are listed).
+fn three_slices_read_once(dir: &Path) -> String {
+    let v = read_guarded(DicomInput::Folder(dir.to_path_buf())).unwrap();
+    assert_values(&v, 3, |s| s as f32);
+    let a = v.acquisition.unwrap();
+    assert_eq!((a.slices, a.files), (3, 3), "{}", a.choice);
+    a.choice
+}
+
+fn symlink(target: impl AsRef<Path>, link: impl AsRef<Path>) {
+    std::os::unix::fs::symlink(target, link).unwrap();
+}
+
+fn mkfifo(path: &Path) {
+    let status = std::process::Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .expect("mkfifo");
+    assert!(status.success());
+}
+
+#[test]
+fn a_link_to_the_root_folder_is_not_followed() {
+    let dir = three_slices();
+    symlink("/", dir.path().join("root"));
+    let choice = three_slices_read_once(dir.path());
+    assert!(
+        choice.contains("SKIPPED") && choice.contains("root -> /") && choice.contains("out of"),
+        "{choice}"
+    );
+}
+
+#[test]
+fn links_to_the_folder_itself_and_its_parent_are_not_walked_again() {
+    let dir = three_slices();
+    symlink(".", dir.path().join("loop"));
+    symlink("..", dir.path().join("up"));
+    let sub = dir.path().join("sub").tap_mkdir();
+    symlink("..", sub.join("back"));
+    let choice = three_slices_read_once(dir.path());
+    assert!(choice.contains("up -> "), "{choice}");
+    assert!(
+        choice.contains("loop") && choice.contains("sub/back") && choice.contains("already"),
+        "{choice}"
+    );
+}
+
+#[test]
+fn a_fifo_in_the_folder_is_skipped_without_being_opened() {
+    let dir = three_slices();
+    // Opening it would block until a writer comes, which none will.
+    mkfifo(&dir.path().join("zz.dcm"));
+    let choice = three_slices_read_once(dir.path());
+    assert!(
+        choice.contains("FIFO") && choice.contains("zz.dcm"),
+        "{choice}"
+    );
+}
+
+#[test]
+fn a_socket_in_the_folder_is_skipped_and_named() {
+    let dir = three_slices();
+    let _listener = std::os::unix::net::UnixListener::bind(dir.path().join("s.sock")).unwrap();
+    let choice = three_slices_read_once(dir.path());
+    assert!(
+        choice.contains("socket") && choice.contains("s.sock"),
+        "{choice}"
+    );
+}
+
+#[test]
+fn links_to_devices_dangling_links_and_link_loops_are_skipped_and_named() {
+    let dir = three_slices();
+    symlink("/dev/zero", dir.path().join("zero.dcm"));
+    symlink("/dev/null", dir.path().join("null.dcm"));
+    symlink("nowhere.dcm", dir.path().join("gone.dcm"));
+    symlink("ping", dir.path().join("pong"));
+    symlink("pong", dir.path().join("ping"));
+    let choice = three_slices_read_once(dir.path());
+    assert!(
+        choice.contains("zero.dcm -> /dev/zero") && choice.contains("null.dcm -> /dev/null"),
+        "{choice}"
+    );
+    assert!(
+        choice.contains("3 × dangling or looping")
+            && choice.contains("gone.dcm")
+            && choice.contains("ping, pong"),
+        "{choice}"
+    );
+}
+
+#[test]
+fn a_slice_reached_twice_through_links_is_read_once() {
+    let dir = three_slices();
+    symlink("IM0003", dir.path().join("copy.dcm"));
+    let sub = dir.path().join("sub").tap_mkdir();
+    symlink("../IM0010", sub.join("again.dcm"));
+    std::fs::hard_link(dir.path().join("IM0017"), dir.path().join("hard.dcm")).unwrap();
+    let choice = three_slices_read_once(dir.path());
+    assert!(choice.contains("already"), "{choice}");
+}
+
+#[test]
+fn two_files_at_one_position_are_an_error_naming_both() {
+    let dir = three_slices();
+    let spec = SliceSpec::ct("2.25.40", "2.25.40.9", 6.0, [ROWS, COLS]);
+    write_slice(&dir.path().join("twin.dcm"), &spec, &words(1, |v| v as u16)).unwrap();
+    let e = read_guarded(DicomInput::Folder(dir.path().to_path_buf()))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("same position") && e.contains("twin.dcm") && e.contains("IM0010"),
+        "{e}"
+    );
+}
+
+#[test]
+fn listed_files_must_be_regular_files_and_are_read_once() {
+    let dir = three_slices();
+    let fifo = dir.path().join("zz.dcm");
+    mkfifo(&fifo);
+    let names = ["IM0003", "IM0010", "IM0017"].map(|n| dir.path().join(n));
+    let with = |extra: &Path| DicomInput::Files([&names[..], &[extra.to_path_buf()]].concat());
+    let e = read_guarded(with(&fifo)).err().unwrap().to_string();
+    assert!(e.contains("zz.dcm") && e.contains("FIFO"), "{e}");
+    let e = read_guarded(with(Path::new("/dev/zero")))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("/dev/zero") && e.contains("character device"),
+        "{e}"
+    );
+    let sub = dir.path().join("sub").tap_mkdir();
+    let e = read_guarded(with(&sub)).err().unwrap().to_string();
+    assert!(e.contains("sub") && e.contains("a folder"), "{e}");
+    // The same slice named twice, and once more through a link: read once.
+    symlink("IM0003", dir.path().join("copy.dcm"));
+    let files = [&names[..], &[names[0].clone(), dir.path().join("copy.dcm")]].concat();
+    let v = read_guarded(DicomInput::Files(files)).unwrap();
+    assert_values(&v, 3, |s| s as f32);
+    assert_eq!(v.acquisition.unwrap().files, 3);
+}
+
+#[test]
+fn folders_nested_past_the_depth_limit_are_an_error_naming_the_limit() {
+    let dir = three_slices();
+    let mut deep = dir.path().to_path_buf();
+    for _ in 0..40 {
+        deep = deep.join("d");
+    }
+    std::fs::create_dir_all(&deep).unwrap();
+    let e = read_guarded(DicomInput::Folder(dir.path().to_path_buf()))
+        .err()
+        .unwrap()
+        .to_string();
+    let folder = dir.path().display().to_string();
+    assert!(e.starts_with(&folder) && e.contains("32 levels"), "{e}");
+}

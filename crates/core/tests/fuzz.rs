@@ -1,6 +1,7 @@
 //! Property-based tests of every file parser of the core: RAW layouts, NRRD, MetaImage,
-//! NIfTI-1 headers, PGM transfer functions and scene TOML. Generated inputs mix valid and
-//! invalid pieces of each format; for every case the parser must return within a time
+//! NIfTI-1 headers, PGM transfer functions, scene TOML and DICOM folders (slices among
+//! links, FIFOs, sockets and nested folders). Generated inputs mix valid and invalid pieces
+//! of each format; for every case the parser must return within a time
 //! bound, must not panic, and a rejection must name its file (and, for scenes, the line and
 //! column or the key).
 //!
@@ -14,10 +15,11 @@ use std::time::Duration;
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
+use volphot::test_util::dicom::{SliceSpec, write_slice};
 use volphot::test_util::nifti::Nifti1;
 use volphot::{
-    ByteOrder, FileRequest, Normalization, RawLayout, Scene, SearchPath, TransferFunction,
-    VoxelType, read_metaimage, read_nrrd, read_volume,
+    ByteOrder, DicomInput, FileRequest, Normalization, RawLayout, Scene, SearchPath,
+    TransferFunction, VoxelType, read_dicom_series, read_metaimage, read_nrrd, read_volume,
 };
 
 /// Cases per parser in a normal test run, and in the long (`--ignored`) run.
@@ -1008,4 +1010,195 @@ fn fuzz_nifti_headers() {
 #[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
 fn fuzz_nifti_headers_long() {
     fuzz_nifti(LONG_CASES);
+}
+
+// --- DICOM folders ------------------------------------------------------------------------
+
+/// What a symbolic link in a generated DICOM folder points at.
+#[derive(Debug, Clone, Copy)]
+enum LinkTarget {
+    /// `/`: the whole file system.
+    Root,
+    /// `.`: the folder holding the link.
+    Itself,
+    /// `..`: its parent (outside the series folder when the link is at the top).
+    Parent,
+    /// The series folder, by absolute path.
+    SeriesFolder,
+    /// A name that does not exist.
+    Missing,
+    /// Another link that points back at this one.
+    Loop,
+    /// The first slice written, by absolute path (else nothing).
+    FirstSlice,
+    /// `/dev/zero`.
+    DevZero,
+}
+
+/// One entry of a generated DICOM folder.
+#[derive(Debug, Clone)]
+enum FolderEntry {
+    /// The next slice of the series (slices are 1 mm apart in the order written).
+    Slice,
+    Link(LinkTarget),
+    /// A hard link to the first slice written (else nothing).
+    HardLink,
+    Fifo,
+    Socket,
+    /// A subfolder with its own entries.
+    Folder(Vec<FolderEntry>),
+}
+
+fn folder_entry() -> impl Strategy<Value = FolderEntry> {
+    let target = prop_oneof![
+        Just(LinkTarget::Root),
+        Just(LinkTarget::Itself),
+        Just(LinkTarget::Parent),
+        Just(LinkTarget::SeriesFolder),
+        Just(LinkTarget::Missing),
+        Just(LinkTarget::Loop),
+        Just(LinkTarget::FirstSlice),
+        Just(LinkTarget::DevZero),
+    ];
+    let leaf = prop_oneof![
+        4 => Just(FolderEntry::Slice),
+        4 => target.prop_map(FolderEntry::Link),
+        1 => Just(FolderEntry::HardLink),
+        1 => Just(FolderEntry::Fifo),
+        1 => Just(FolderEntry::Socket),
+    ];
+    leaf.prop_recursive(3, 24, 6, |inner| {
+        prop::collection::vec(inner, 0..6).prop_map(FolderEntry::Folder)
+    })
+}
+
+/// Writes a generated folder; counts the slices and remembers the first.
+struct FolderWriter {
+    series: PathBuf,
+    slices: usize,
+    first: Option<PathBuf>,
+    names: usize,
+}
+
+impl FolderWriter {
+    fn name(&mut self) -> String {
+        self.names += 1;
+        format!("e{}", self.names)
+    }
+
+    fn write(&mut self, at: &Path, entries: &[FolderEntry]) {
+        for entry in entries {
+            let path = at.join(self.name());
+            match entry {
+                FolderEntry::Slice => self.slice(&path),
+                FolderEntry::Link(target) => self.link(&path, *target),
+                FolderEntry::HardLink => match &self.first {
+                    Some(first) => std::fs::hard_link(first, &path).unwrap(),
+                    None => self.slice(&path),
+                },
+                FolderEntry::Fifo => {
+                    let ok = std::process::Command::new("mkfifo").arg(&path).status();
+                    assert!(ok.unwrap().success());
+                }
+                FolderEntry::Socket => {
+                    drop(std::os::unix::net::UnixListener::bind(&path).unwrap());
+                }
+                FolderEntry::Folder(inner) => {
+                    std::fs::create_dir(&path).unwrap();
+                    self.write(&path, inner);
+                }
+            }
+        }
+    }
+
+    fn slice(&mut self, path: &Path) {
+        let p = self.slices;
+        let spec = SliceSpec::ct("2.25.70", &format!("2.25.70.{p}"), p as f64, [2, 3]);
+        write_slice(path, &spec, &[p as u16; 6]).unwrap();
+        self.slices += 1;
+        self.first.get_or_insert_with(|| path.to_path_buf());
+    }
+
+    fn link(&mut self, path: &Path, target: LinkTarget) {
+        let to: PathBuf = match target {
+            LinkTarget::Root => "/".into(),
+            LinkTarget::Itself => ".".into(),
+            LinkTarget::Parent => "..".into(),
+            LinkTarget::SeriesFolder => self.series.clone(),
+            LinkTarget::Missing => "missing".into(),
+            LinkTarget::Loop => {
+                let other = path.with_extension("back");
+                std::os::unix::fs::symlink(path, &other).unwrap();
+                other
+            }
+            LinkTarget::FirstSlice => self.first.clone().unwrap_or_else(|| "none".into()),
+            LinkTarget::DevZero => "/dev/zero".into(),
+        };
+        std::os::unix::fs::symlink(to, path).unwrap();
+    }
+}
+
+/// Every slice written is read exactly once, whatever links and special files surround it;
+/// a folder without slices is an error naming it. Never a hang (the folders hold FIFOs and
+/// links to `/`), never a panic.
+fn check_dicom_folder(dir: &Path, entries: Vec<FolderEntry>) -> Result<Verdict, String> {
+    let case = tempfile::tempdir_in(dir).unwrap();
+    let series = case.path().join("series");
+    std::fs::create_dir(&series).unwrap();
+    let mut writer = FolderWriter {
+        series: series.clone(),
+        slices: 0,
+        first: None,
+        names: 0,
+    };
+    writer.write(&series, &entries);
+    match read_dicom_series(&DicomInput::Folder(series.clone()), None, false) {
+        Ok((v, _)) => {
+            let a = v.acquisition.unwrap();
+            if (a.slices, a.files) == (writer.slices, writer.slices) {
+                Ok(Verdict::Accepted)
+            } else {
+                Err(format!(
+                    "read {} slices from {} files, wrote {}: {}",
+                    a.slices, a.files, writer.slices, a.choice
+                ))
+            }
+        }
+        Err(e) => {
+            let text = e.to_string();
+            if writer.slices == 0 && text.starts_with(&series.display().to_string()) {
+                Ok(Verdict::Rejected)
+            } else {
+                Err(format!("{} slices written, yet: {text}", writer.slices))
+            }
+        }
+    }
+}
+
+/// Cases in a normal run: each writes a few tiny slices, links and FIFOs.
+const DICOM_FOLDER_CASES: u32 = 100;
+
+#[test]
+fn fuzz_dicom_folders() {
+    let (accepted, rejected) = fuzz(
+        "dicom_folders",
+        DICOM_FOLDER_CASES,
+        prop::collection::vec(folder_entry(), 0..8),
+        check_dicom_folder,
+    );
+    assert!(
+        accepted > 0 && rejected > 0,
+        "{accepted} accepted, {rejected} rejected: the cases must exercise both"
+    );
+}
+
+#[test]
+#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+fn fuzz_dicom_folders_long() {
+    fuzz(
+        "dicom_folders",
+        LONG_CASES / 10,
+        prop::collection::vec(folder_entry(), 0..8),
+        check_dicom_folder,
+    );
 }

@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 pub const TEXT_INPUT_CAP: u64 = 16 << 20;
 
 /// A file's kind for messages: "a folder", "a FIFO", "a character device", ….
-fn kind_of(file_type: std::fs::FileType) -> &'static str {
+pub(crate) fn file_kind(file_type: std::fs::FileType) -> &'static str {
     use std::os::unix::fs::FileTypeExt;
     if file_type.is_dir() {
         "a folder"
@@ -43,7 +43,7 @@ pub fn open_regular(path: &Path, what: &str) -> Result<(File, u64)> {
             path,
             format!(
                 "is {}; expected a {what} (a regular file)",
-                kind_of(meta.file_type())
+                file_kind(meta.file_type())
             ),
         ));
     }
@@ -55,7 +55,7 @@ pub fn open_regular(path: &Path, what: &str) -> Result<(File, u64)> {
             path,
             format!(
                 "is {}; expected a {what} (a regular file)",
-                kind_of(opened.file_type())
+                file_kind(opened.file_type())
             ),
         ));
     }

@@ -8,6 +8,7 @@ mod memory;
 
 pub use checksum::{cache_dir, sha256_bytes, sha256_cached, sha256_content, sha256_file};
 pub use fsutil::{hostname, is_stale_temp, temp_sibling, write_atomic, write_atomic_with};
+pub(crate) use input::file_kind;
 pub use input::{
     TEXT_INPUT_CAP, byte_size, escaped_prefix, open_regular, read_bytes_capped, read_text_capped,
 };

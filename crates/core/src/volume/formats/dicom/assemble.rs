@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::header::SliceHeader;
+use super::header::{SPACING_RANGE_MM, SliceHeader, mm, plausible_spacing};
 use crate::error::{Error, Result};
 use crate::volume::formats::orient::{PatientAxes, cross, dot};
 
@@ -125,12 +125,69 @@ pub fn stack(slices: &mut [SliceHeader], resample: bool) -> Result<(PatientAxes,
         ),
         Err(Irregular { error, .. }) => return Err(error),
     };
+    check_step(slices, normal, step)?;
     Ok((
         PatientAxes {
             directions: [row, col, normal],
             spacing: [first.pixel_spacing[1], first.pixel_spacing[0], step],
         },
         positions,
+    ))
+}
+
+/// The slice step must be a plausible distance ([`plausible_spacing`]); the error names
+/// the field it came from and the outermost slices.
+fn check_step(slices: &[SliceHeader], normal: [f64; 3], step: f64) -> Result<()> {
+    if plausible_spacing(step) {
+        return Ok(());
+    }
+    let [low, high] = SPACING_RANGE_MM.map(mm);
+    let (first, last) = (&slices[0], &slices[slices.len() - 1]);
+    let what = if slices.len() == 1 {
+        format!(
+            "SliceThickness (0018,0050) of the only slice is {}",
+            mm(step)
+        )
+    } else {
+        format!(
+            "ImagePositionPatient (0020,0032) puts the slices {} mm apart ({} slices from {} at {} mm along the \
+             slice normal to this one at {} mm)",
+            mm(step),
+            slices.len(),
+            describe(first),
+            mm(dot(first.position, normal)),
+            mm(dot(last.position, normal))
+        )
+    };
+    Err(Error::format(
+        &last.path,
+        format!(
+            "{what}: expected a slice step from {low} to {high} mm; the header is damaged or not in millimetres"
+        ),
+    ))
+}
+
+/// How many slices resampling `slices` (sorted, at `positions` along the normal) onto
+/// `step` makes; an error naming the outermost files when the positions span more steps
+/// than can be counted (damaged positions, never an overflow or a huge allocation).
+pub fn resampled_count(slices: &[SliceHeader], positions: &[f64], step: f64) -> Result<usize> {
+    let (first, last) = (positions[0], positions[positions.len() - 1]);
+    let steps = ((last - first) / step).round();
+    if steps.is_finite() && steps < f64::from(u32::MAX) {
+        return Ok(steps as usize + 1);
+    }
+    Err(Error::format(
+        &slices[slices.len() - 1].path,
+        format!(
+            "resample = true would interpolate {:e} slices {} mm apart between {} (at {} mm along the slice \
+             normal) and this slice (at {} mm): ImagePositionPatient (0020,0032) of these slices is damaged \
+             (remove them, or pass only the regular run of slices)",
+            steps + 1.0,
+            mm(step),
+            describe(&slices[0]),
+            mm(first),
+            mm(last)
+        ),
     ))
 }
 
@@ -286,15 +343,15 @@ fn slice_step(slices: &[SliceHeader], normal: [f64; 3]) -> std::result::Result<f
 }
 
 /// Linear interpolation of `values` (`nz` slices of `plane` voxels at `positions`, sorted)
-/// onto slices `step` apart from the first position; returns the values and the new count.
+/// onto `count` slices ([`resampled_count`]) `step` apart from the first position.
 pub fn resample_slices(
     values: &[f32],
     plane: usize,
     positions: &[f64],
     step: f64,
-) -> (Vec<f32>, usize) {
+    count: usize,
+) -> Vec<f32> {
     let (first, last) = (positions[0], positions[positions.len() - 1]);
-    let count = ((last - first) / step).round() as usize + 1;
     let mut out = Vec::with_capacity(count * plane);
     let mut below = 0;
     for k in 0..count {
@@ -310,5 +367,5 @@ pub fn resample_slices(
         );
         out.extend(a.iter().zip(b).map(|(a, b)| a + (b - a) * t));
     }
-    (out, count)
+    out
 }

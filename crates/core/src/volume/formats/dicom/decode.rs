@@ -37,7 +37,9 @@ pub fn decode_into(slices: &[SliceHeader], out: &mut [f32]) -> Result<String> {
 }
 
 fn decode_file(path: &Path, frames: Frames) -> Result<[u8; 32]> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let (mut file, length) = crate::util::open_regular(path, "DICOM file")?;
+    let mut bytes = Vec::with_capacity(length as usize);
+    std::io::Read::read_to_end(&mut file, &mut bytes).map_err(|e| Error::io(path, e))?;
     let hash: [u8; 32] = Sha256::digest(&bytes).into();
     let obj = OpenFileOptions::new()
         .from_reader(&bytes[..])

@@ -62,11 +62,13 @@ pub enum Skip {
     NoImage,
 }
 
-/// Reads the header of one file: its frames, or why it is no image.
+/// Reads the header of one file: its frames, or why it is no image. Only a regular file
+/// is opened (a FIFO would block, a device never end): anything else is an error naming it.
 pub fn scan(path: &Path) -> Result<std::result::Result<Vec<SliceHeader>, Skip>> {
+    let (file, _) = crate::util::open_regular(path, "DICOM file")?;
     let obj: DefaultDicomObject = match OpenFileOptions::new()
         .read_until(tags::PIXEL_DATA)
-        .open_file(path)
+        .from_reader(file)
     {
         Ok(o) => o,
         Err(e) => return Ok(Err(Skip::NotDicom(e.to_string()))),
@@ -165,6 +167,7 @@ impl SliceCommon<'_> {
             "PixelSpacing",
             frame,
         )?;
+        check_pixel_spacing(path, pixel_spacing, frame)?;
         let slope = found(
             tags::RESCALE_SLOPE,
             tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE,
@@ -193,6 +196,48 @@ impl SliceCommon<'_> {
             thickness: optional_float(path, thickness, "SliceThickness")?,
         })
     }
+}
+
+/// The smallest and largest spacing, mm, between pixels or slices: 1 nm (electron
+/// microscopy) to 10 m. Outside it the header is damaged or not in millimetres, and the
+/// volume would be degenerate (a zero, negative or non-finite spacing is no volume at all).
+pub const SPACING_RANGE_MM: [f64; 2] = [1e-6, 1e4];
+
+/// Whether `mm` is a spacing in [`SPACING_RANGE_MM`].
+pub fn plausible_spacing(mm: f64) -> bool {
+    (SPACING_RANGE_MM[0]..=SPACING_RANGE_MM[1]).contains(&mm)
+}
+
+/// A length in mm for messages: fixed point for usual values, exponent for extreme ones.
+pub fn mm(v: f64) -> String {
+    if v == 0.0 || (1e-3..1e6).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// PixelSpacing must be two positive millimetre distances in [`SPACING_RANGE_MM`].
+fn check_pixel_spacing(path: &Path, spacing: [f64; 2], frame: u32) -> Result<()> {
+    if spacing.iter().all(|s| plausible_spacing(*s)) {
+        return Ok(());
+    }
+    let of_frame = if frame > 0 {
+        format!(" (frame {})", frame + 1)
+    } else {
+        String::new()
+    };
+    Err(Error::format(
+        path,
+        format!(
+            "PixelSpacing (0028,0030) is [{}, {}]{of_frame}: expected two positive distances (between rows, \
+             between columns) from {} to {} mm; the header is damaged or not in millimetres",
+            mm(spacing[0]),
+            mm(spacing[1]),
+            mm(SPACING_RANGE_MM[0]),
+            mm(SPACING_RANGE_MM[1])
+        ),
+    ))
 }
 
 fn check_format(path: &Path, f: &PixelFormat, photometric: &str) -> Result<()> {

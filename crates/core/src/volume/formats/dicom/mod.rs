@@ -7,6 +7,7 @@
 mod assemble;
 mod decode;
 mod header;
+mod walk;
 
 use std::path::{Path, PathBuf};
 
@@ -17,14 +18,18 @@ use super::orient::reorient;
 use super::{Acquisition, LoadedVoxels, VoxelType, check_dims};
 use crate::error::{Error, Result};
 use header::Skip;
+use walk::Reason;
 
 /// Where the DICOM files are (`[volume] dicom`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum DicomInput {
-    /// A folder, searched recursively; files that are not DICOM images are skipped.
+    /// A folder, searched recursively; files that are not DICOM images are skipped, and so
+    /// are symbolic links leading out of the folder and anything but regular files (the
+    /// record lists them). Each file is read once, however many paths reach it.
     Folder(PathBuf),
-    /// Explicit files; each must be a DICOM image.
+    /// Explicit files; each must be a regular file holding a DICOM image (a file named
+    /// twice is read once).
     Files(Vec<PathBuf>),
 }
 
@@ -59,55 +64,46 @@ pub fn read_series(
     resample: bool,
 ) -> Result<(LoadedVoxels, String)> {
     let anchor = input.anchor();
-    let slices = scan_all(input)?;
+    let (slices, skipped) = scan_all(input)?;
     let chosen = assemble::choose(&anchor, slices, series)?;
     let mut choice = chosen.choice;
+    if !skipped.is_empty() {
+        choice += &format!("; SKIPPED: {}", walk::describe_skipped(&skipped));
+    }
     let mut slices = chosen.slices;
     let (axes, positions) = assemble::stack(&mut slices, resample)?;
     for s in &slices {
         header::check_transfer_syntax(&s.path, &s.transfer_syntax)?;
     }
     let [rows, cols] = slices[0].size;
-    let dims = [cols as usize, rows as usize, slices.len()];
+    let mut dims = [cols as usize, rows as usize, slices.len()];
     let count = check_dims(&anchor, dims)?;
+    // The resampled size is checked before anything is decoded or allocated.
+    let resampled = match &positions {
+        assemble::Positions::Irregular(z) => {
+            let count = assemble::resampled_count(&slices, z, axes.spacing[2])?;
+            check_dims(&anchor, [dims[0], dims[1], count])?;
+            Some((z, count))
+        }
+        assemble::Positions::Regular => None,
+    };
     let mut values = vec![0.0f32; count];
     let sha256 = decode::decode_into(&slices, &mut values)?;
-    let mut dims = dims;
-    if let assemble::Positions::Irregular(z) = &positions {
+    if let Some((z, count)) = resampled {
         let plane = dims[0] * dims[1];
-        let (resampled, count) = assemble::resample_slices(&values, plane, z, axes.spacing[2]);
-        check_dims(&anchor, [dims[0], dims[1], count])?;
+        values = assemble::resample_slices(&values, plane, z, axes.spacing[2], count);
         choice += &format!(
             "; RESAMPLED: {} irregularly spaced slices interpolated linearly onto {count} slices {:.4} mm apart",
             dims[2], axes.spacing[2]
         );
-        (values, dims[2]) = (resampled, count);
+        dims[2] = count;
     }
     let (map, orientation) = axes.grid_map();
     let (values, dims) = reorient(values, dims, &map);
     let spacing = axes.grid_spacing(&map);
-    let first = &slices[0];
-    let mut rescale: Vec<[f64; 2]> = Vec::new();
-    for s in &slices {
-        if !rescale.contains(&s.rescale) {
-            rescale.push(s.rescale);
-        }
-    }
-    let files: std::collections::HashSet<&Path> = slices.iter().map(|s| s.path.as_path()).collect();
-    let acquisition = Acquisition {
-        format: "dicom".into(),
-        series_uid: Some(first.series_uid.clone()),
-        description: Some(first.description.clone()),
-        modality: Some(first.modality.clone()),
-        slices: slices.len(),
-        files: files.len(),
-        spacing_mm: spacing,
-        rescale,
-        orientation,
-        choice,
-    };
+    let acquisition = acquisition(&slices, spacing, orientation, choice);
     let voxel_type = match positions {
-        assemble::Positions::Regular => voxel_type(&first.format, &acquisition.rescale),
+        assemble::Positions::Regular => voxel_type(&slices[0].format, &acquisition.rescale),
         assemble::Positions::Irregular(_) => VoxelType::F32,
     };
     Ok((
@@ -122,6 +118,35 @@ pub fn read_series(
         },
         sha256,
     ))
+}
+
+/// The record of what was read: the series, its slices and files, the distinct rescales.
+fn acquisition(
+    slices: &[header::SliceHeader],
+    spacing_mm: [f64; 3],
+    orientation: super::Orientation,
+    choice: String,
+) -> Acquisition {
+    let first = &slices[0];
+    let mut rescale: Vec<[f64; 2]> = Vec::new();
+    for s in slices {
+        if !rescale.contains(&s.rescale) {
+            rescale.push(s.rescale);
+        }
+    }
+    let files: std::collections::HashSet<&Path> = slices.iter().map(|s| s.path.as_path()).collect();
+    Acquisition {
+        format: "dicom".into(),
+        series_uid: Some(first.series_uid.clone()),
+        description: Some(first.description.clone()),
+        modality: Some(first.modality.clone()),
+        slices: slices.len(),
+        files: files.len(),
+        spacing_mm,
+        rescale,
+        orientation,
+        choice,
+    }
 }
 
 /// The type that holds the modality values exactly: integers when every rescale is integral.
@@ -143,18 +168,62 @@ fn voxel_type(f: &header::PixelFormat, rescale: &[[f64; 2]]) -> VoxelType {
     }
 }
 
-fn scan_all(input: &DicomInput) -> Result<Vec<header::SliceHeader>> {
-    let (files, folder) = match input {
-        DicomInput::Folder(dir) => (list_folder(dir)?, Some(dir)),
-        DicomInput::Files(files) if files.is_empty() => {
-            return Err(Error::parameter(
-                "volume.dicom",
-                "[]",
-                "a folder or at least one file",
-            ));
+/// Entries of the input not read, and why.
+type Skipped = Vec<(Reason, PathBuf)>;
+
+/// The files of `input`, each once, and the entries left out (a folder's links leading
+/// out of it, special files, second paths to one file; a list's repeated files).
+fn input_files(input: &DicomInput) -> Result<(Vec<PathBuf>, Skipped)> {
+    match input {
+        DicomInput::Folder(dir) => {
+            let listing = walk::list(dir, walk::LIMITS)?;
+            if listing.files.is_empty() {
+                return Err(Error::format(dir, empty_folder(&listing.skipped)));
+            }
+            Ok((listing.files, listing.skipped))
         }
-        DicomInput::Files(files) => (files.clone(), None),
-    };
+        DicomInput::Files(files) if files.is_empty() => Err(Error::parameter(
+            "volume.dicom",
+            "[]",
+            "a folder or at least one file",
+        )),
+        DicomInput::Files(files) => unique_files(files),
+    }
+}
+
+fn empty_folder(skipped: &[(Reason, PathBuf)]) -> String {
+    if skipped.is_empty() {
+        "the folder is empty; expected DICOM files".into()
+    } else {
+        format!(
+            "no regular files in the folder (skipped: {}); expected DICOM files",
+            walk::describe_skipped(skipped)
+        )
+    }
+}
+
+/// The listed files, each a regular file (a FIFO or device named here is an error naming
+/// it, never opened), a file listed twice (or through a link) kept once.
+fn unique_files(files: &[PathBuf]) -> Result<(Vec<PathBuf>, Skipped)> {
+    use std::os::unix::fs::MetadataExt;
+    let mut seen = std::collections::HashSet::new();
+    let (mut unique, mut repeated) = (Vec::new(), Vec::new());
+    for path in files {
+        let (file, _) = crate::util::open_regular(path, "DICOM file")?;
+        let meta = file.metadata().map_err(|e| Error::io(path, e))?;
+        if seen.insert((meta.dev(), meta.ino())) {
+            unique.push(path.clone());
+        } else {
+            repeated.push((Reason::AlreadyRead, path.clone()));
+        }
+    }
+    Ok((unique, repeated))
+}
+
+/// The slices of every file of `input`, and the entries left out (for the record).
+fn scan_all(input: &DicomInput) -> Result<(Vec<header::SliceHeader>, Skipped)> {
+    let (files, skipped) = input_files(input)?;
+    let folder = matches!(input, DicomInput::Folder(_));
     let scanned: Vec<(PathBuf, std::result::Result<Vec<header::SliceHeader>, Skip>)> = files
         .par_iter()
         .map(|p| header::scan(p).map(|r| (p.clone(), r)))
@@ -164,67 +233,35 @@ fn scan_all(input: &DicomInput) -> Result<Vec<header::SliceHeader>> {
     for (path, result) in scanned {
         match (result, folder) {
             (Ok(s), _) => slices.extend(s),
-            (Err(Skip::NotDicom(why)), None) => {
+            (Err(Skip::NotDicom(why)), false) => {
                 return Err(Error::format(
                     &path,
                     format!("not a readable DICOM file: {why}"),
                 ));
             }
-            (Err(Skip::NoImage), None) => {
+            (Err(Skip::NoImage), false) => {
                 return Err(Error::format(
                     &path,
                     "a DICOM file without an image (no Rows attribute)",
                 ));
             }
-            (Err(Skip::NotDicom(_)), Some(_)) => not_dicom += 1,
-            (Err(Skip::NoImage), Some(_)) => no_image += 1,
+            (Err(Skip::NotDicom(_)), true) => not_dicom += 1,
+            (Err(Skip::NoImage), true) => no_image += 1,
         }
     }
     if slices.is_empty() {
+        let also = if skipped.is_empty() {
+            String::new()
+        } else {
+            format!(" (also skipped: {})", walk::describe_skipped(&skipped))
+        };
         return Err(Error::format(
             input.anchor(),
             format!(
-                "no DICOM images: {} files looked at, {not_dicom} not DICOM, {no_image} DICOM without an image; expected a folder of DICOM slices",
+                "no DICOM images: {} files looked at, {not_dicom} not DICOM, {no_image} DICOM without an image{also}; expected a folder of DICOM slices",
                 files.len()
             ),
         ));
     }
-    Ok(slices)
-}
-
-/// All regular files under `dir` (recursively, hidden entries skipped), sorted.
-fn list_folder(dir: &Path) -> Result<Vec<PathBuf>> {
-    if !dir.is_dir() {
-        return Err(Error::format(
-            dir,
-            "not a folder; expected a folder of DICOM files (or a list of files)",
-        ));
-    }
-    let mut out = Vec::new();
-    let mut pending = vec![dir.to_path_buf()];
-    while let Some(d) = pending.pop() {
-        for entry in std::fs::read_dir(&d).map_err(|e| Error::io(&d, e))? {
-            let path = entry.map_err(|e| Error::io(&d, e))?.path();
-            if path
-                .file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with('.'))
-            {
-                continue;
-            }
-            if path.is_dir() {
-                pending.push(path);
-            } else {
-                out.push(path);
-            }
-        }
-    }
-    if out.is_empty() {
-        return Err(Error::format(
-            dir,
-            "the folder is empty; expected DICOM files",
-        ));
-    }
-    out.sort();
-    Ok(out)
+    Ok((slices, skipped))
 }
