@@ -5,6 +5,7 @@
 
 use std::fs::File;
 use std::io::Read;
+use std::os::unix::fs::OpenOptionsExt as _;
 use std::path::Path;
 
 use crate::error::{Error, Result};
@@ -47,7 +48,13 @@ pub fn open_regular(path: &Path, what: &str) -> Result<(File, u64)> {
             ),
         ));
     }
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    // Opened without blocking: had the path been replaced by a FIFO since the check above,
+    // a plain open would wait for a writer forever. Reads of a regular file ignore the flag.
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)
+        .map_err(|e| Error::io(path, e))?;
     // The path may have been replaced between the two calls: check what was opened.
     let opened = file.metadata().map_err(|e| Error::io(path, e))?;
     if !opened.is_file() {
