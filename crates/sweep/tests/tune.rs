@@ -478,3 +478,93 @@ fn the_thesis_study_plans() {
         "a dry run writes nothing"
     );
 }
+
+/// The longest any `sweep` of these tests may take before it counts as a hang.
+const HANG: std::time::Duration = std::time::Duration::from_secs(30);
+
+/// Runs `cmd` to its end, its output in files under `dir`; a run past [`HANG`] is killed
+/// and fails the test.
+fn run_bounded(cmd: &mut Command, dir: &Path, name: &str) -> Output {
+    let (stdout, stderr) = (
+        dir.join(format!("{name}.out")),
+        dir.join(format!("{name}.err")),
+    );
+    let mut child = cmd
+        .stdout(std::fs::File::create(&stdout).unwrap())
+        .stderr(std::fs::File::create(&stderr).unwrap())
+        .spawn()
+        .expect("sweep starts");
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > HANG {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{cmd:?} gave no answer within {HANG:?} (a hang)");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    Output {
+        status,
+        stdout: std::fs::read(stdout).unwrap(),
+        stderr: std::fs::read(stderr).unwrap(),
+    }
+}
+
+/// A dry run answers promptly whatever the budget: one no search could spend is refused
+/// with the key, the value and the range, and the largest accepted one is planned.
+#[test]
+fn a_dry_run_answers_promptly_for_any_render_budget() {
+    let tmp = tempfile::tempdir().unwrap();
+    let space = "\"integrator.nused\" = { int = [2, 60] }";
+    let huge = experiment(
+        tmp.path(),
+        "huge",
+        12,
+        &tune_tables(1, 1_000_000_000_000_000_000, 12, space),
+    );
+    let out = run_bounded(
+        sweep().args(["tune", "--dry-run"]).arg(&huge),
+        tmp.path(),
+        "huge",
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    for expected in [
+        "huge.toml:",
+        "`budget`",
+        "renders = 1000000000000000000",
+        "1..=1000000",
+    ] {
+        assert!(err.contains(expected), "`{expected}` not in: {err}");
+    }
+    let largest = experiment(
+        tmp.path(),
+        "largest",
+        12,
+        &tune_tables(1, 1_000_000, 12, space),
+    );
+    let out = run_bounded(
+        sweep()
+            .args(["tune", "--dry-run"])
+            .arg(&largest)
+            .arg("-o")
+            .arg(tmp.path().join("largest")),
+        tmp.path(),
+        "largest",
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // Two levels, η = 3: brackets of 3 + 1 and of 2 renders, so 6 per iteration, and the
+    // search stops after 10 000 iterations whatever the budget.
+    assert!(
+        text.contains("budget 1000000 renders: 20000 bracket(s), at most 60000 renders"),
+        "{text}"
+    );
+}

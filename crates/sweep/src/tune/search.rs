@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 
 use super::cells::{CellResult, TuneCells};
-use super::hyperband::{Rung, bracket_renders, schedule};
+use super::hyperband::{MAX_ITERATIONS, Rung, bracket_renders, schedule};
 use super::propose::{Observed, Origin, propose, stream};
 use super::{TuneMode, TuneOptions, output};
 use crate::backend::Run;
@@ -17,9 +17,6 @@ use crate::plan::{Budget, TuneSpec};
 use crate::plan::{Experiment, Quality};
 use crate::render::{CellFilter, Selection};
 use crate::store::{OutputDir, cell_hash, check_owner, is_done, read_plan, write_plan};
-
-/// Hyperband iterations at most (a budget normally ends the search long before).
-const MAX_ITERATIONS: u32 = 10_000;
 
 /// One configuration evaluated at one level (on every context).
 #[derive(Debug, Clone)]
