@@ -568,3 +568,66 @@ fn a_dry_run_answers_promptly_for_any_render_budget() {
         "{text}"
     );
 }
+
+/// Two searches on one folder would render each other's cells and count a cell the other
+/// is rendering as failed: the second is refused at once, naming the folder and the first.
+#[test]
+fn a_second_tune_on_a_folder_being_tuned_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let space = "\"integrator.nused\" = { int = [2, 60], scale = \"log\" }\n\"integrator.maxdist\" = { range = [0.05, 0.5] }";
+    let exp = experiment(tmp.path(), "twice", 16, &tune_tables(5, 30, 16, space));
+    let out = tmp.path().join("out");
+    let args = |c: &mut Command| {
+        c.args(["tune", "--quiet", "--threads", "1", "--no-report"])
+            .arg(&exp)
+            .arg("-o")
+            .arg(&out);
+    };
+    let mut first_cmd = sweep();
+    args(&mut first_cmd);
+    let mut first = first_cmd
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Once a cell is finished the first search is under way.
+    let start = std::time::Instant::now();
+    while finished_cells(&out).is_empty() {
+        assert!(
+            first.try_wait().unwrap().is_none(),
+            "the first tune ended before finishing a cell"
+        );
+        if start.elapsed() > 4 * HANG {
+            let _ = first.kill();
+            panic!("the first tune finished no cell within {:?}", 4 * HANG);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let mut second_cmd = sweep();
+    args(&mut second_cmd);
+    let second = run_bounded(&mut second_cmd, tmp.path(), "second");
+    let first_running = first.try_wait().unwrap().is_none();
+    let first_status = first.wait().unwrap();
+    assert!(
+        first_running,
+        "the first tune ended before the second was refused; raise its budget"
+    );
+    assert!(first_status.success(), "the first tune failed");
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert!(!second.status.success(), "the second tune ran: {err}");
+    for expected in [
+        out.display().to_string(),
+        "sweep tune".into(),
+        format!("process {}", first.id()),
+    ] {
+        assert!(err.contains(&expected), "`{expected}` not in: {err}");
+    }
+    // The first search saw every cell it rendered finished.
+    let (h, rows) = csv(&out.join("tune/observations.csv"));
+    let error = col(&h, "error");
+    assert!(
+        rows.iter()
+            .all(|r| r[error].parse::<f64>().unwrap().is_finite()),
+        "{rows:?}"
+    );
+}

@@ -16,7 +16,7 @@ use crate::plan::default_output;
 use crate::plan::{Budget, TuneSpec};
 use crate::plan::{Experiment, Quality};
 use crate::render::{CellFilter, Selection};
-use crate::store::{OutputDir, cell_hash, check_owner, is_done, read_plan, write_plan};
+use crate::store::{OutputDir, cell_hash, check_owner, is_done, lock_tune, read_plan, write_plan};
 
 /// One configuration evaluated at one level (on every context).
 #[derive(Debug, Clone)]
@@ -90,6 +90,7 @@ fn search(
     out: OutputDir,
     opts: &TuneOptions,
 ) -> Result<ExitCode> {
+    let _lock = lock_tune(&out)?;
     check_owner(&out, &exp.name)?;
     let cells = TuneCells::new(exp, spec)?;
     let multi = crate::progress::multi(opts.quiet);
