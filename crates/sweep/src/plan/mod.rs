@@ -268,7 +268,7 @@ impl Experiment {
 
     /// The cells of the grid with their content addresses. The grid's size is checked
     /// before any cell is built: at most `max_cells` cells unless `yes`, and never more
-    /// than [`MAX_PLANNED_CELLS`].
+    /// than [`MAX_PLANNED_CELLS`]; two cells of one address are refused.
     pub(crate) fn plan_with_hashes(
         &self,
         quality: Quality,
@@ -292,6 +292,7 @@ impl Experiment {
             .iter()
             .map(|c| cell_hash(&c.params, &c.base_dir))
             .collect::<Result<Vec<_>>>()?;
+        self.distinct_scenes(quality, &cells, &hashes)?;
         Ok((cells, hashes))
     }
 
@@ -520,5 +521,81 @@ integrator.nused = [25, 150]
             assert!(msg.contains(at), "{msg} should contain {at}");
             assert!(msg.contains(what), "{msg} should name {what}");
         }
+    }
+
+    /// Each case: the experiment (after `scene = "s.toml"` unless it names scenes on an
+    /// axis), the quality planned, and what the error must say.
+    #[test]
+    fn repeated_values_and_identical_scenes_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "s.toml", &scene());
+        write(dir.path(), "t.toml", &scene());
+        let base = "scene = \"s.toml\"\n";
+        let cases: [(String, Quality, &[&str]); 5] = [
+            (
+                format!("{base}[axes]\n\"integrator.nused\" = [25, 50, 25]\n"),
+                Quality::Default,
+                &["e.toml:3", "`integrator.nused`", "25", "positions 1 and 3"],
+            ),
+            (
+                format!("{base}[axes]\n\"sigma.t\" = [80, 40, 80.0]\n"),
+                Quality::Default,
+                &["e.toml:3", "`sigma.t`", "80", "positions 1 and 3"],
+            ),
+            (
+                format!(
+                    "{base}[[zip]]\n\"sigma.t\" = [40, 80, 40]\n\"integrator.nused\" = [5, 6, 5]\n"
+                ),
+                Quality::Default,
+                &["e.toml:", "zip[0]", "sigma.t = 40", "positions 1 and 3"],
+            ),
+            (
+                format!(
+                    "{base}[axes]\n\"integrator.nused\" = [5, 6]\n[quality.quick]\naxes = {{ \"integrator.nused\" = [10, 10] }}\n"
+                ),
+                Quality::Quick,
+                &[
+                    "e.toml:",
+                    "quality",
+                    "`integrator.nused`",
+                    "10",
+                    "positions 1 and 2",
+                ],
+            ),
+            (
+                "[axes]\nscene = [\"s.toml\", \"t.toml\"]\n\"integrator.nused\" = [5, 6]\n".into(),
+                Quality::Default,
+                &[
+                    "e.toml:2",
+                    "`scene`",
+                    "s.toml",
+                    "t.toml",
+                    "positions 1 and 2",
+                    "same scene",
+                ],
+            ),
+        ];
+        for (text, quality, expected) in &cases {
+            let p = write(dir.path(), "e.toml", text);
+            let err = Experiment::load(&p).and_then(|e| e.plan_with_hashes(*quality, true));
+            let msg = format!(
+                "{:#}",
+                err.err().unwrap_or_else(|| panic!("accepted:\n{text}"))
+            );
+            for what in *expected {
+                assert!(msg.contains(what), "`{msg}` lacks `{what}` for\n{text}");
+            }
+        }
+        // Distinct files and values plan as before.
+        let p = write(
+            dir.path(),
+            "e.toml",
+            "[axes]\nscene = [\"s.toml\"]\n\"integrator.nused\" = [5, 6]\n",
+        );
+        let (cells, _) = Experiment::load(&p)
+            .unwrap()
+            .plan_with_hashes(Quality::Default, true)
+            .unwrap();
+        assert_eq!(cells.len(), 2);
     }
 }
