@@ -398,6 +398,10 @@ fn bad_tune_sections_are_located_errors() {
             "nsued",
         ),
         (
+            tune_tables(1, 10, SIDE, "\"../integrator/nused\" = { int = [2, 60] }"),
+            "`../integrator/nused` is not a scene key",
+        ),
+        (
             tune_tables(1, 10, SIDE, "\"integrator.nused\" = { int = [0, 60] }"),
             "nused",
         ),

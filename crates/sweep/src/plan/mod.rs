@@ -47,6 +47,7 @@ mod file;
 #[cfg(test)]
 mod fuzz;
 mod keys;
+mod kind;
 mod reference;
 mod source;
 mod tune;
@@ -66,6 +67,7 @@ pub(crate) use file::{
     CompareKind, CompareSpec, PlotSpec, ReferenceMethod, ReferenceSpec, SheetLayer, SheetSpec,
 };
 pub(crate) use keys::{flatten_set, flatten_space, short_key, toml_to_json, value_text};
+pub(crate) use kind::load_scene;
 pub(crate) use reference::{reference_key, reference_params};
 pub(crate) use source::Source;
 pub(crate) use tune::Metric;
@@ -163,13 +165,16 @@ impl Experiment {
     pub(crate) fn load(path: &Path) -> Result<Self> {
         let text =
             std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        let file: ExperimentFile =
-            toml::from_str(&text).map_err(|e| anyhow::anyhow!(toml_error(&e, &text, path)))?;
+        let file: ExperimentFile = toml::from_str(&text).map_err(|e| {
+            kind::scene_given_for_experiment(path, &text)
+                .unwrap_or_else(|| anyhow::anyhow!(toml_error(&e, &text, path)))
+        })?;
         let source = Source {
             path: path.to_path_buf(),
             text,
         };
         let name = experiment_name(&source, &file)?;
+        checks::scene_keys(&source, &file)?;
         let base = base_scene(&source, &file)?;
         let mut set = Vec::new();
         flatten_set(&file.set, "", &mut set);
@@ -512,6 +517,21 @@ integrator.nused = [25, 150]
                 "scene = \"s.toml\"\n[axes]\n\"integrator.nsued\" = [5]\n",
                 "e.toml:3",
                 "nsued",
+            ),
+            (
+                "scene = \"s.toml\"\n[axes]\n\"../../integrator/nused\" = [5]\n",
+                "e.toml:3",
+                "`../../integrator/nused` is not a scene key",
+            ),
+            (
+                "scene = \"s.toml\"\n[set]\n\"integrator..nused\" = 5\n",
+                "e.toml:3",
+                "`integrator..nused` is not a scene key",
+            ),
+            (
+                "scene = \"s.toml\"\n[[zip]]\n\"sigma.t \" = [1, 2]\n\"integrator.nused\" = [5, 6]\n",
+                "e.toml:3",
+                "`sigma.t ` is not a scene key",
             ),
         ];
         for (text, at, what) in cases {

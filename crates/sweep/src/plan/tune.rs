@@ -34,6 +34,7 @@ use toml::{Table, Value};
 
 use super::Source;
 use super::flatten_space;
+use super::keys::scene_key;
 
 /// The most fidelity levels (each level is a power of `eta` more work than the last).
 const MAX_LEVELS: u32 = 6;
@@ -371,6 +372,7 @@ fn space(source: &Source, table: &Table) -> anyhow::Result<Vec<Param>> {
     flatten_space(table, "", &mut flat);
     let mut params = Vec::new();
     for (key, value) in flat {
+        scene_key(&key).map_err(|m| source.error(&format!("tune.space.{key}"), m))?;
         let kind = param_kind(&value)
             .map_err(|m| source.error(&format!("tune.space.{key}"), format!("`{key}`: {m}")))?;
         if key == RESOLUTION_KEY || key == "scene" {
