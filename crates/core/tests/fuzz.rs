@@ -3,13 +3,15 @@
 //! links, FIFOs, sockets and nested folders). Generated inputs mix valid and invalid pieces
 //! of each format; for every case the parser must return within a time
 //! bound, must not panic, and a rejection must name its file (and, for scenes, the line and
-//! column or the key).
+//! column or the key). Every run must see both accepted and rejected inputs, so a
+//! generator cannot drift to one side.
 //!
 //! CI runs a few thousand cases per parser; the long run (`cargo test --release -p
 //! volphot-core --test fuzz -- --ignored`) runs 100 000 each.
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::mpsc;
 use std::time::Duration;
 
@@ -36,17 +38,51 @@ enum Verdict {
     Rejected,
 }
 
+/// How many generated inputs a parser accepted and rejected. A run must see both: a
+/// generator that drifted to one side no longer tests the other.
+#[derive(Default)]
+struct Tally {
+    accepted: AtomicU32,
+    rejected: AtomicU32,
+}
+
+impl Tally {
+    fn count(&self, verdict: &Verdict) {
+        let counter = match verdict {
+            Verdict::Accepted => &self.accepted,
+            Verdict::Rejected => &self.rejected,
+        };
+        counter.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Prints the counts; fails when either is zero.
+    fn check(self, name: &str, cases: u32) {
+        let (accepted, rejected) = (self.accepted.into_inner(), self.rejected.into_inner());
+        let _ = writeln!(
+            std::io::stderr().lock(),
+            "fuzz {name}: {cases} cases, {accepted} accepted, {rejected} rejected with a located error, 0 panics, 0 hangs"
+        );
+        assert!(
+            accepted > 0,
+            "fuzz {name}: the parser accepted none of {cases} generated inputs; the generator makes no valid file any more"
+        );
+        assert!(
+            rejected > 0,
+            "fuzz {name}: the parser rejected none of {cases} generated inputs; the generator makes no invalid file any more"
+        );
+    }
+}
+
 /// Runs `check` on each generated case in a thread of its own, failing a case that
-/// panics, hangs past [`BOUND`] or is rejected with an error that does not say where.
-/// Prints and returns how many cases were accepted and rejected.
-fn fuzz<S, F>(name: &str, cases: u32, strategy: S, check: F) -> (u32, u32)
+/// panics, hangs past [`BOUND`] or is rejected with an error that does not say where,
+/// and a run whose cases were all accepted or all rejected ([`Tally`]).
+fn fuzz<S, F>(name: &str, cases: u32, strategy: S, check: F)
 where
     S: Strategy,
     S::Value: Clone + std::fmt::Debug + Send + 'static,
     F: Fn(&Path, S::Value) -> Result<Verdict, String> + Send + Sync + Clone + 'static,
 {
-    let accepted = std::sync::atomic::AtomicU32::new(0);
-    let rejected = std::sync::atomic::AtomicU32::new(0);
+    let tally = Tally::default();
     let dir = tempfile::tempdir().unwrap();
     let mut runner = TestRunner::new(Config {
         cases,
@@ -69,12 +105,8 @@ where
             ))),
             Ok(Err(_)) => Err(TestCaseError::fail(format!("panicked on {shown}"))),
             Ok(Ok(Err(message))) => Err(TestCaseError::fail(message)),
-            Ok(Ok(Ok(Verdict::Accepted))) => {
-                accepted.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                Ok(())
-            }
-            Ok(Ok(Ok(Verdict::Rejected))) => {
-                rejected.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            Ok(Ok(Ok(verdict))) => {
+                tally.count(&verdict);
                 Ok(())
             }
         }
@@ -82,14 +114,21 @@ where
     if let Err(e) = result {
         panic!("{e}");
     }
-    let counts = (accepted.into_inner(), rejected.into_inner());
-    let _ = writeln!(
-        std::io::stderr().lock(),
-        "fuzz {name}: {cases} cases, {} accepted, {} rejected with a located error, 0 panics, 0 hangs",
-        counts.0,
-        counts.1
-    );
-    counts
+    tally.check(name, cases);
+}
+
+/// The harness itself: a generator that drifted to making only rejected inputs (or only
+/// accepted ones) tests one side of its parser, and must fail the test that uses it.
+#[test]
+#[should_panic(expected = "accepted none")]
+fn a_generator_of_only_rejected_inputs_fails_its_test() {
+    fuzz("only_rejected", 8, Just(0u8), |_, _| Ok(Verdict::Rejected));
+}
+
+#[test]
+#[should_panic(expected = "rejected none")]
+fn a_generator_of_only_accepted_inputs_fails_its_test() {
+    fuzz("only_accepted", 8, Just(0u8), |_, _| Ok(Verdict::Accepted));
 }
 
 /// A rejection must name the file (or, for a bad parameter of the request, its key).
@@ -994,11 +1033,7 @@ fn over_budget(c: &NiftiCase) -> bool {
 }
 
 fn fuzz_nifti(cases: u32) {
-    let (accepted, rejected) = fuzz("nifti_headers", cases, nifti_case(), check_nifti);
-    assert!(
-        accepted > 0 && rejected > 0,
-        "{accepted} accepted, {rejected} rejected: the cases must exercise both"
-    );
+    fuzz("nifti_headers", cases, nifti_case(), check_nifti);
 }
 
 #[test]
@@ -1180,15 +1215,11 @@ const DICOM_FOLDER_CASES: u32 = 100;
 
 #[test]
 fn fuzz_dicom_folders() {
-    let (accepted, rejected) = fuzz(
+    fuzz(
         "dicom_folders",
         DICOM_FOLDER_CASES,
         prop::collection::vec(folder_entry(), 0..8),
         check_dicom_folder,
-    );
-    assert!(
-        accepted > 0 && rejected > 0,
-        "{accepted} accepted, {rejected} rejected: the cases must exercise both"
     );
 }
 

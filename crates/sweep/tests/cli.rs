@@ -81,3 +81,71 @@ fn a_reference_pool_inside_the_output_folder_is_refused() {
     );
     assert!(!out.join("cells").exists(), "cells were rendered");
 }
+
+/// A scene file given where an experiment file belongs, or the other way round, is named
+/// for what it is, with the verb that takes it.
+#[test]
+fn a_file_of_the_other_kind_is_named_with_the_verb_that_takes_it() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../experiments/");
+    let experiment = format!("{root}quickstart.toml");
+    let tune = format!("{root}tune_thesis.toml");
+    let scene = format!("{root}scenes/phantom-engine.toml");
+    let tmp = tempfile::tempdir().unwrap();
+    let cases: [(Vec<&str>, &str, &[&str]); 8] = [
+        (
+            vec!["render", &experiment],
+            "quickstart.toml",
+            &["is an experiment file", "sweep run"],
+        ),
+        (
+            vec!["render", &tune],
+            "tune_thesis.toml",
+            &["is an experiment file", "sweep tune"],
+        ),
+        (
+            vec!["export", &experiment, "--format", "mitsuba"],
+            "quickstart.toml",
+            &["is an experiment file", "sweep run"],
+        ),
+        (
+            vec!["bench", "--scene", &experiment],
+            "quickstart.toml",
+            &["is an experiment file", "sweep run"],
+        ),
+        (
+            vec!["run", &scene],
+            "phantom-engine.toml",
+            &["is a scene file", "sweep render"],
+        ),
+        (
+            vec![&scene],
+            "phantom-engine.toml",
+            &["is a scene file", "sweep render"],
+        ),
+        (
+            vec!["plan", &scene],
+            "phantom-engine.toml",
+            &["is a scene file", "sweep render"],
+        ),
+        (
+            vec!["tune", &scene],
+            "phantom-engine.toml",
+            &["is a scene file", "sweep render"],
+        ),
+    ];
+    for (args, file, expected) in cases {
+        let mut cmd = sweep();
+        cmd.args(&args);
+        if !matches!(args[0], "bench" | "plan") {
+            cmd.arg("-o").arg(tmp.path().join("out"));
+        }
+        let out = cmd.output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(err.contains(file), "{args:?}: `{err}` names no file");
+        for what in expected {
+            assert!(err.contains(what), "{args:?}: `{err}` lacks `{what}`");
+        }
+        assert!(!err.contains("unknown field"), "{args:?}: {err}");
+    }
+}

@@ -398,6 +398,10 @@ fn bad_tune_sections_are_located_errors() {
             "nsued",
         ),
         (
+            tune_tables(1, 10, SIDE, "\"../integrator/nused\" = { int = [2, 60] }"),
+            "`../integrator/nused` is not a scene key",
+        ),
+        (
             tune_tables(1, 10, SIDE, "\"integrator.nused\" = { int = [0, 60] }"),
             "nused",
         ),
@@ -476,5 +480,158 @@ fn the_thesis_study_plans() {
     assert!(
         std::fs::read_dir(tmp.path()).unwrap().next().is_none(),
         "a dry run writes nothing"
+    );
+}
+
+/// The longest any `sweep` of these tests may take before it counts as a hang.
+const HANG: std::time::Duration = std::time::Duration::from_secs(30);
+
+/// Runs `cmd` to its end, its output in files under `dir`; a run past [`HANG`] is killed
+/// and fails the test.
+fn run_bounded(cmd: &mut Command, dir: &Path, name: &str) -> Output {
+    let (stdout, stderr) = (
+        dir.join(format!("{name}.out")),
+        dir.join(format!("{name}.err")),
+    );
+    let mut child = cmd
+        .stdout(std::fs::File::create(&stdout).unwrap())
+        .stderr(std::fs::File::create(&stderr).unwrap())
+        .spawn()
+        .expect("sweep starts");
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > HANG {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{cmd:?} gave no answer within {HANG:?} (a hang)");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    Output {
+        status,
+        stdout: std::fs::read(stdout).unwrap(),
+        stderr: std::fs::read(stderr).unwrap(),
+    }
+}
+
+/// A dry run answers promptly whatever the budget: one no search could spend is refused
+/// with the key, the value and the range, and the largest accepted one is planned.
+#[test]
+fn a_dry_run_answers_promptly_for_any_render_budget() {
+    let tmp = tempfile::tempdir().unwrap();
+    let space = "\"integrator.nused\" = { int = [2, 60] }";
+    let huge = experiment(
+        tmp.path(),
+        "huge",
+        12,
+        &tune_tables(1, 1_000_000_000_000_000_000, 12, space),
+    );
+    let out = run_bounded(
+        sweep().args(["tune", "--dry-run"]).arg(&huge),
+        tmp.path(),
+        "huge",
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    for expected in [
+        "huge.toml:",
+        "`budget`",
+        "renders = 1000000000000000000",
+        "1..=1000000",
+    ] {
+        assert!(err.contains(expected), "`{expected}` not in: {err}");
+    }
+    let largest = experiment(
+        tmp.path(),
+        "largest",
+        12,
+        &tune_tables(1, 1_000_000, 12, space),
+    );
+    let out = run_bounded(
+        sweep()
+            .args(["tune", "--dry-run"])
+            .arg(&largest)
+            .arg("-o")
+            .arg(tmp.path().join("largest")),
+        tmp.path(),
+        "largest",
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // Two levels, η = 3: brackets of 3 + 1 and of 2 renders, so 6 per iteration, and the
+    // search stops after 10 000 iterations whatever the budget.
+    assert!(
+        text.contains("budget 1000000 renders: 20000 bracket(s), at most 60000 renders"),
+        "{text}"
+    );
+}
+
+/// Two searches on one folder would render each other's cells and count a cell the other
+/// is rendering as failed: the second is refused at once, naming the folder and the first.
+#[test]
+fn a_second_tune_on_a_folder_being_tuned_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let space = "\"integrator.nused\" = { int = [2, 60], scale = \"log\" }\n\"integrator.maxdist\" = { range = [0.05, 0.5] }";
+    let exp = experiment(tmp.path(), "twice", 16, &tune_tables(5, 30, 16, space));
+    let out = tmp.path().join("out");
+    let args = |c: &mut Command| {
+        c.args(["tune", "--quiet", "--threads", "1", "--no-report"])
+            .arg(&exp)
+            .arg("-o")
+            .arg(&out);
+    };
+    let mut first_cmd = sweep();
+    args(&mut first_cmd);
+    let mut first = first_cmd
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Once a cell is finished the first search is under way.
+    let start = std::time::Instant::now();
+    while finished_cells(&out).is_empty() {
+        assert!(
+            first.try_wait().unwrap().is_none(),
+            "the first tune ended before finishing a cell"
+        );
+        if start.elapsed() > 4 * HANG {
+            let _ = first.kill();
+            panic!("the first tune finished no cell within {:?}", 4 * HANG);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let mut second_cmd = sweep();
+    args(&mut second_cmd);
+    let second = run_bounded(&mut second_cmd, tmp.path(), "second");
+    let first_running = first.try_wait().unwrap().is_none();
+    let first_status = first.wait().unwrap();
+    assert!(
+        first_running,
+        "the first tune ended before the second was refused; raise its budget"
+    );
+    assert!(first_status.success(), "the first tune failed");
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert!(!second.status.success(), "the second tune ran: {err}");
+    for expected in [
+        out.display().to_string(),
+        "sweep tune".into(),
+        format!("process {}", first.id()),
+    ] {
+        assert!(err.contains(&expected), "`{expected}` not in: {err}");
+    }
+    // The first search saw every cell it rendered finished.
+    let (h, rows) = csv(&out.join("tune/observations.csv"));
+    let error = col(&h, "error");
+    assert!(
+        rows.iter()
+            .all(|r| r[error].parse::<f64>().unwrap().is_finite()),
+        "{rows:?}"
     );
 }

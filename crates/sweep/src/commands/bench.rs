@@ -15,8 +15,8 @@ use anyhow::{Context, Result};
 use serde::Serialize;
 use volphot::{
     CacheError, Control, DEFAULT_THIN_BELOW, ErrorBound, Film, IntegratorParams, Layer,
-    ReferenceAccumulator, Scene, SearchPath, ShadowEstimator, build_photon_map, load_params,
-    peak_memory_bytes, process_cpu_seconds,
+    ReferenceAccumulator, Scene, SearchPath, ShadowEstimator, build_photon_map, peak_memory_bytes,
+    process_cpu_seconds,
 };
 
 use crate::analyse::{Agreement, agreement, mse_against_noisy_reference};
@@ -146,7 +146,7 @@ fn config_name(config: BenchConfig) -> &'static str {
 /// Runs the benchmark.
 pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
     let scene_path = headline(args);
-    let (mut params, _) = load_params(&scene_path)
+    let (mut params, _) = crate::plan::load_scene(&scene_path)
         .with_context(|| format!("benchmark scene {}", scene_path.display()))?;
     if args.quick {
         params.camera.resolution = [256, 256];

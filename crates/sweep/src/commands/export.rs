@@ -4,13 +4,13 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Result;
-use volphot::{Scene, SearchPath, export_mitsuba, load_params, locate_error};
+use volphot::{Scene, SearchPath, export_mitsuba, locate_error};
 
 use crate::cli::{ExportArgs, ExportFormat};
 
 /// Loads the scene (validated as for a render) and writes it in the chosen format.
 pub(crate) fn run(args: &ExportArgs) -> Result<ExitCode> {
-    let (mut params, _) = load_params(&args.scene)?;
+    let (mut params, _) = crate::plan::load_scene(&args.scene)?;
     if let Some(resolution) = args.resolution {
         params.camera.resolution = resolution;
     }

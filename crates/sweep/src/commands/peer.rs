@@ -18,8 +18,8 @@ use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use volphot::{
-    Control, Film, Layer, MsEstimator, ReferenceAccumulator, Scene, SceneParams, SearchPath,
-    export_mitsuba, process_cpu_seconds, read_pfm,
+    Control, Film, IntegratorParams, Layer, Method, MsEstimator, ReferenceAccumulator, Scene,
+    SceneParams, SearchPath, export_mitsuba, process_cpu_seconds, read_pfm,
 };
 
 use crate::analyse::mse_against_noisy_reference;
@@ -227,16 +227,12 @@ fn estimator_rows(scene: &Scene, reference: &Reference, seeds: u32) -> Result<Ve
     for (name, estimator, factor, iterations) in ESTIMATORS {
         let runs = (0..seeds as u64)
             .map(|k| {
-                let s = scene_for(
-                    scene,
-                    Part::All,
-                    scene.integrator().seed.wrapping_add(1 + k),
-                )?;
-                let mut integrator = s.integrator().clone();
-                integrator.estimator = estimator;
-                integrator.volume_photons = photons.saturating_mul(factor);
-                integrator.iterations = iterations;
-                let s = s.with_integrator(integrator)?;
+                let seed = scene.integrator().seed.wrapping_add(1 + k);
+                let s = photon_scene(scene, Part::All, seed, |integrator| {
+                    integrator.estimator = estimator;
+                    integrator.volume_photons = photons.saturating_mul(factor);
+                    integrator.iterations = iterations;
+                })?;
                 let (out, cpu) = cpu_timed(|| Ok(volphot::render(&s, &Control::none())?))?;
                 Ok((part_of(&out.film, Part::All), cpu))
             })
@@ -300,6 +296,23 @@ fn scene_for(scene: &Scene, part: Part, seed: u64) -> Result<Scene> {
     let mut integrator = scene.integrator().clone();
     integrator.multiple = part == Part::All;
     integrator.seed = seed;
+    Ok(scene.with_integrator(integrator)?)
+}
+
+/// The scene of a "volphot photon" row: the photon-mapping integrator whatever method the
+/// scene itself asks for (a scene with `method = "reference"` would otherwise make every
+/// photon row a path-traced render), on one part and seed, with the row's settings.
+fn photon_scene(
+    scene: &Scene,
+    part: Part,
+    seed: u64,
+    settings: impl FnOnce(&mut IntegratorParams),
+) -> Result<Scene> {
+    let mut integrator = scene.integrator().clone();
+    integrator.multiple = part == Part::All;
+    integrator.seed = seed;
+    integrator.method = Method::Photon;
+    settings(&mut integrator);
     Ok(scene.with_integrator(integrator)?)
 }
 
@@ -491,10 +504,10 @@ fn photon_rows(scene: &Scene, part: Part, reference: &Reference, seeds: u32) -> 
     ] {
         let runs = (0..seeds as u64)
             .map(|k| {
-                let mut s = scene_for(scene, part, scene.integrator().seed.wrapping_add(1 + k))?;
-                let mut integrator = s.integrator().clone();
-                integrator.volume_photons = photons;
-                s = s.with_integrator(integrator)?;
+                let seed = scene.integrator().seed.wrapping_add(1 + k);
+                let s = photon_scene(scene, part, seed, |integrator| {
+                    integrator.volume_photons = photons;
+                })?;
                 let (out, cpu) = cpu_timed(|| Ok(volphot::render(&s, &Control::none())?))?;
                 Ok((part_of(&out.film, part), cpu))
             })
@@ -582,6 +595,51 @@ fn print_rows(rows: &[Row]) {
             row.rmse,
             row.efficiency,
             row.mean_ratio
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A tiny scene that asks for the path tracer (`method = "reference"`, 4 spp).
+    fn path_traced_scene() -> Scene {
+        let src = volphot::test_util::SPOT_SPHERE
+            .replace("resolution = [20, 20]", "resolution = [8, 8]")
+            .replace(
+                "reference_spp = 1024",
+                "reference_spp = 4\nmethod = \"reference\"\nvolume_photons = 2000",
+            );
+        volphot::test_util::scene(&src)
+    }
+
+    fn image_of(row: &Row) -> (f64, f64) {
+        (row.rmse, row.mean_ratio)
+    }
+
+    /// Every "volphot photon" row is a photon-mapping render whatever the scene's method:
+    /// on a path-traced scene it differs from the path tracer's row at the scene's spp, and
+    /// 4× photons differ from the scene's photons.
+    #[test]
+    fn photon_rows_map_photons_on_a_scene_that_asks_for_the_path_tracer() {
+        let scene = path_traced_scene();
+        let reference = reference(&scene, Part::All, 2).unwrap();
+        let path = path_rows(&scene, Part::All, &reference, &[4], 1).unwrap();
+        let photon = photon_rows(&scene, Part::All, &reference, 1).unwrap();
+        assert_eq!(photon.len(), 2);
+        for row in &photon {
+            assert_ne!(image_of(row), image_of(&path[0]), "{}", row.setting);
+        }
+        assert_ne!(image_of(&photon[0]), image_of(&photon[1]), "4× photons");
+        let estimators = estimator_rows(&scene, &reference, 1).unwrap();
+        for row in &estimators {
+            assert_ne!(image_of(row), image_of(&path[0]), "{}", row.setting);
+        }
+        assert_ne!(
+            image_of(&estimators[0]),
+            image_of(&estimators[1]),
+            "10× photons"
         );
     }
 }

@@ -5,8 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use volphot::{
-    Layer, Method, RenderOutput, Scene, SceneParams, SearchPath, load_params, locate_error,
-    write_png,
+    Layer, Method, RenderOutput, Scene, SceneParams, SearchPath, locate_error, write_png,
 };
 
 use crate::cli::{IntegratorChoice, RenderArgs};
@@ -41,7 +40,7 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode> {
 
 /// The scene file's parameters with the command line's overrides applied.
 fn scene_params(args: &RenderArgs) -> Result<SceneParams> {
-    let (mut params, _) = load_params(&args.scene)?;
+    let (mut params, _) = crate::plan::load_scene(&args.scene)?;
     if let Some(seed) = args.seed {
         params.integrator.seed = seed;
     }

@@ -3,7 +3,7 @@
 
 use toml::{Table, Value};
 
-use super::keys::flatten_axes;
+use super::keys::{flatten_axes, values_equal};
 use super::source::Source;
 
 /// One dimension of the grid: a single axis, or a zip group of axes of equal length.
@@ -22,10 +22,38 @@ impl Dimension {
             values: values.into_iter().map(|v| vec![v]).collect(),
         }
     }
+
+    /// The first value (a row of a zip group) given twice, said as "`key` holds v twice
+    /// (positions i and j): …". A repeat would plan the same cells twice under one
+    /// address; refusing it keeps the grid what the file says rather than folding it.
+    pub(crate) fn repeat(&self) -> Option<String> {
+        let (i, j) = self.values.iter().enumerate().find_map(|(j, b)| {
+            self.values[..j]
+                .iter()
+                .position(|a| a.iter().zip(b).all(|(x, y)| values_equal(x, y)))
+                .map(|i| (i, j))
+        })?;
+        let what = match self.keys.as_slice() {
+            [key] => format!("`{key}` holds {}", self.values[i][0]),
+            keys => format!(
+                "row {}",
+                keys.iter()
+                    .zip(&self.values[i])
+                    .map(|(k, v)| format!("{k} = {v}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        };
+        Some(format!(
+            "{what} twice (positions {} and {}): each value makes its own cells, so remove the repeat",
+            i + 1,
+            j + 1
+        ))
+    }
 }
 
 /// The grid's dimensions: every `[axes]` entry, then every `[[zip]]` group; an axis named
-/// twice is an error.
+/// twice, or a value (a zip row) given twice in one axis, is an error.
 pub(crate) fn dimensions(
     source: &Source,
     axes: &Table,
@@ -37,7 +65,11 @@ pub(crate) fn dimensions(
     for (key, spec) in &flat {
         let values = axis_values(spec)
             .map_err(|m| source.error(&format!("axes.{key}"), format!("axis `{key}`: {m}")))?;
-        dimensions.push(Dimension::single(key.clone(), values));
+        let dimension = Dimension::single(key.clone(), values);
+        if let Some(m) = dimension.repeat() {
+            return Err(source.error(&format!("axes.{key}"), format!("axis {m}")));
+        }
+        dimensions.push(dimension);
     }
     for (zi, zip) in zips.iter().enumerate() {
         dimensions.push(zip_dimension(source, zi, zip)?);
@@ -84,12 +116,19 @@ fn zip_dimension(source: &Source, zi: usize, zip: &Table) -> anyhow::Result<Dime
     if len == 0 {
         return Err(source.error("zip", format!("zip[{zi}] is empty")));
     }
-    Ok(Dimension {
-        keys,
+    let dimension = Dimension {
         values: (0..len)
             .map(|i| columns.iter().map(|c| c[i].clone()).collect())
             .collect(),
-    })
+        keys,
+    };
+    match dimension.repeat() {
+        Some(m) => Err(source.error(
+            &format!("zip.{}", dimension.keys[0]),
+            format!("zip[{zi}] holds the {m}"),
+        )),
+        None => Ok(dimension),
+    }
 }
 
 /// Expands an axis spec (a list, or `{ from, to, steps, scale }`) into values.

@@ -3,6 +3,7 @@
 //! the quality preset and its axis values applied, validated with errors that point at the
 //! experiment file.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
@@ -62,8 +63,12 @@ impl Experiment {
                 self.source
                     .error("quality", format!("quality axis `{key}`: {m}"))
             })?;
+            let replacement = Dimension::single(key.clone(), values);
+            if let Some(m) = replacement.repeat() {
+                return Err(self.source.error("quality", format!("quality axis {m}")));
+            }
             if let Some(d) = dims.iter_mut().find(|d| d.keys == [key.clone()]) {
-                d.values = values.into_iter().map(|v| vec![v]).collect();
+                d.values = replacement.values;
             } else if dims.iter().any(|d| d.keys.contains(&key)) {
                 return Err(self.source.error(
                     "quality",
@@ -72,7 +77,7 @@ impl Experiment {
                     ),
                 ));
             } else {
-                dims.push(Dimension::single(key, values));
+                dims.push(replacement);
             }
         }
         Ok(dims)
@@ -139,6 +144,85 @@ impl Experiment {
             ));
         }
         Ok(cells)
+    }
+
+    /// Every cell must be a scene of its own: two cells under one address would be planned
+    /// and rendered as one, and the run would report the second as left to another run.
+    /// Repeated values are refused with the axes; this finds what only the scenes show,
+    /// such as two scene files with the same content, or a value another key makes moot.
+    pub(crate) fn distinct_scenes(
+        &self,
+        quality: Quality,
+        cells: &[CellSpec],
+        hashes: &[String],
+    ) -> Result<()> {
+        let mut first: HashMap<&str, usize> = HashMap::with_capacity(hashes.len());
+        for (j, hash) in hashes.iter().enumerate() {
+            if let Some(&i) = first.get(hash.as_str()) {
+                return Err(self.same_scene(quality, &cells[i], &cells[j], hash));
+            }
+            first.insert(hash, j);
+        }
+        Ok(())
+    }
+
+    /// Two cells with one address: the axis values they differ in, with their positions
+    /// (and for scene files, both files).
+    fn same_scene(
+        &self,
+        quality: Quality,
+        a: &CellSpec,
+        b: &CellSpec,
+        hash: &str,
+    ) -> anyhow::Error {
+        let dims = self.dimensions_for(quality).unwrap_or_default();
+        let position = |key: &str, value: &Value| {
+            dims.iter().find_map(|d| {
+                let k = d.keys.iter().position(|dk| dk == key)?;
+                d.values.iter().position(|row| values_equal(&row[k], value))
+            })
+        };
+        let differ: Vec<(&str, &Value, &Value)> = a
+            .axes
+            .iter()
+            .zip(&b.axes)
+            .filter(|((_, x), (_, y))| !values_equal(x, y))
+            .map(|((k, x), (_, y))| (k.as_str(), x, y))
+            .collect();
+        let what: Vec<String> = differ
+            .iter()
+            .map(|&(key, x, y)| {
+                let at = match (position(key, x), position(key, y)) {
+                    (Some(p), Some(q)) => format!(" (positions {} and {})", p + 1, q + 1),
+                    _ => String::new(),
+                };
+                if key == "scene" {
+                    let file =
+                        |v: &Value| self.base_dir().join(value_text(v)).display().to_string();
+                    format!(
+                        "the scene files {} and {} of axis `scene`{at} hold the same scene",
+                        file(x),
+                        file(y)
+                    )
+                } else {
+                    format!("`{key}` = {x} and {y}{at} make the same scene")
+                }
+            })
+            .collect();
+        let at = differ
+            .first()
+            .map_or("axes".to_string(), |(k, _, _)| format!("axes.{k}"));
+        self.source.error(
+            &at,
+            format!(
+                "cells {} ({}) and {} ({}) are the same scene (address {hash}): {}; every cell must render a scene of its own, so remove one of the values, or drop one of the two combinations with [[exclude]]",
+                a.index,
+                a.label(),
+                b.index,
+                b.label(),
+                what.join("; ")
+            ),
+        )
     }
 
     /// Whether an exclude rule matches every one of its keys in `axes`.

@@ -6,8 +6,13 @@ use std::collections::BTreeMap;
 
 use anyhow::Result;
 
+use toml::{Table, Value};
+
 use super::axes::Dimension;
-use super::file::{CompareKind, CompareSpec, PlotSpec, QualityPreset, ReferenceSpec, SheetSpec};
+use super::file::{
+    CompareKind, CompareSpec, ExperimentFile, PlotSpec, QualityPreset, ReferenceSpec, SheetSpec,
+};
+use super::keys::{flatten_axes, flatten_set, scene_key};
 use super::source::Source;
 use crate::analyse::{is_metric, metric_keys};
 
@@ -46,6 +51,43 @@ impl<'a> AxisNames<'a> {
             None => Ok(()),
         }
     }
+}
+
+/// Every key that names a scene setting ([set], [axes], [[zip]], the quality presets'
+/// `set` and `axes`, [reference] `set`) is a dotted path of names; the error points at it.
+pub(crate) fn scene_keys(source: &Source, file: &ExperimentFile) -> Result<()> {
+    let mut keys: Vec<(String, String)> = Vec::new();
+    let mut add = |at: &str, flat: Vec<(String, Value)>| {
+        keys.extend(flat.into_iter().map(|(k, _)| (at.to_string(), k)));
+    };
+    let flat = |table: &Table, leaf: fn(&Table, &str, &mut Vec<(String, Value)>)| {
+        let mut v = Vec::new();
+        leaf(table, "", &mut v);
+        v
+    };
+    add("set", flat(&file.set, flatten_set));
+    add("axes", flat(&file.axes, flatten_axes));
+    for zip in &file.zip {
+        add("zip", flat(zip, flatten_axes));
+    }
+    for (name, preset) in &file.quality {
+        add(&format!("quality.{name}"), flat(&preset.set, flatten_set));
+        add(&format!("quality.{name}"), flat(&preset.axes, flatten_axes));
+    }
+    if let Some(r) = &file.reference {
+        add("reference", flat(&r.set, flatten_set));
+    }
+    for (at, key) in keys {
+        scene_key(&key).map_err(|m| {
+            let at = if at.contains('.') {
+                at
+            } else {
+                format!("{at}.{key}")
+            };
+            source.error(&at, m)
+        })?;
+    }
+    Ok(())
 }
 
 /// Only `quick` and `paper` presets exist.

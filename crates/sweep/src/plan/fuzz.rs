@@ -1,7 +1,8 @@
 //! Property-based tests of the experiment parser: generated experiment files mix valid and
 //! invalid tables, axes, ranges, zips, exclusions, presets, references, comparisons, plots
 //! and sheets. Every file must be accepted or rejected within a time bound, without a
-//! panic, and every rejection must point into the experiment file.
+//! panic, and every rejection must point into the experiment file; a run must see both
+//! accepted and rejected files.
 //!
 //! CI runs a few thousand cases; `cargo test --release -p volphot-sweep fuzz -- --ignored`
 //! runs 100 000.
@@ -123,6 +124,7 @@ fn check(dir: &Path, text: String) -> Result<bool, String> {
     }
 }
 
+/// Writes the base scene the generated files name, then fuzzes [`check`] on them.
 fn fuzz(cases: u32) {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(
@@ -133,18 +135,37 @@ fn fuzz(cases: u32) {
         ),
     )
     .unwrap();
+    run(
+        "experiment_files",
+        dir.path(),
+        cases,
+        experiment_text(),
+        check,
+    );
+}
+
+/// Runs `check` on each generated case in a thread of its own, failing a case that
+/// panics, hangs past [`BOUND`] or is rejected without pointing into its file, and a run
+/// whose cases were all accepted or all rejected; `check` says whether a case was accepted.
+fn run<S, F>(name: &str, dir: &Path, cases: u32, strategy: S, check: F)
+where
+    S: Strategy<Value = String>,
+    F: Fn(&Path, String) -> Result<bool, String> + Send + Sync + Clone + 'static,
+{
     let mut runner = TestRunner::new(Config {
         cases,
         failure_persistence: None,
         ..Config::default()
     });
     let counts = std::sync::Mutex::new((0u32, 0u32));
-    let result = runner.run(&experiment_text(), |text| {
+    let result = runner.run(&strategy, |text| {
         let (tx, rx) = mpsc::channel();
-        let case_dir = dir.path().to_path_buf();
+        let case_dir = dir.to_path_buf();
         let shown = text.clone();
+        let check = check.clone();
         std::thread::spawn(move || {
-            let r = std::panic::catch_unwind(|| check(&case_dir, text));
+            let r =
+                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| check(&case_dir, text)));
             let _ = tx.send(r);
         });
         match rx.recv_timeout(BOUND) {
@@ -169,7 +190,16 @@ fn fuzz(cases: u32) {
     use std::io::Write as _;
     let _ = writeln!(
         std::io::stderr().lock(),
-        "fuzz experiment_files: {cases} cases, {accepted} accepted, {rejected} rejected with a located error, 0 panics, 0 hangs"
+        "fuzz {name}: {cases} cases, {accepted} accepted, {rejected} rejected with a located error, 0 panics, 0 hangs"
+    );
+    // A generator that drifted to one side of the parser no longer tests the other.
+    assert!(
+        accepted > 0,
+        "fuzz {name}: the parser accepted none of {cases} generated files; the generator makes no valid file any more"
+    );
+    assert!(
+        rejected > 0,
+        "fuzz {name}: the parser rejected none of {cases} generated files; the generator makes no invalid file any more"
     );
 }
 
@@ -182,4 +212,32 @@ fn fuzz_experiment_files() {
 #[ignore = "long run: cargo test --release -p volphot-sweep fuzz -- --ignored"]
 fn fuzz_experiment_files_long() {
     fuzz(LONG_CASES);
+}
+
+/// The harness itself: a generator that drifted to making only rejected files (or only
+/// accepted ones) tests one side of the parser, and must fail the test that uses it.
+#[test]
+#[should_panic(expected = "accepted none")]
+fn a_generator_of_only_rejected_files_fails_its_test() {
+    let dir = tempfile::tempdir().unwrap();
+    run(
+        "only_rejected",
+        dir.path(),
+        8,
+        Just(String::new()),
+        |_, _| Ok(false),
+    );
+}
+
+#[test]
+#[should_panic(expected = "rejected none")]
+fn a_generator_of_only_accepted_files_fails_its_test() {
+    let dir = tempfile::tempdir().unwrap();
+    run(
+        "only_accepted",
+        dir.path(),
+        8,
+        Just(String::new()),
+        |_, _| Ok(true),
+    );
 }

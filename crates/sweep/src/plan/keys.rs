@@ -50,6 +50,22 @@ pub(crate) fn flatten_set(table: &Table, prefix: &str, out: &mut Vec<(String, Va
     flatten(table, prefix, &|k, _| matches!(k, "phantom" | "box"), out);
 }
 
+/// A key that names a scene setting must be a dotted path of names (`integrator.nused`):
+/// anything else (`../../integrator/nused`, `a..b`) would reach the scene reader as an
+/// empty or garbled field name.
+pub(crate) fn scene_key(key: &str) -> std::result::Result<(), String> {
+    let name = |part: &str| {
+        !part.is_empty() && part.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+    };
+    if key.split('.').all(name) {
+        Ok(())
+    } else {
+        Err(format!(
+            "`{key}` is not a scene key: expected a dotted path of names such as `integrator.nused` or `sigma.t` (or `scene` for an axis of scene files)"
+        ))
+    }
+}
+
 /// Compares axis values, treating 80 and 80.0 as equal.
 pub(crate) fn values_equal(a: &Value, b: &Value) -> bool {
     match (a, b) {

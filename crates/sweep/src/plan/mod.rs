@@ -47,6 +47,7 @@ mod file;
 #[cfg(test)]
 mod fuzz;
 mod keys;
+mod kind;
 mod reference;
 mod source;
 mod tune;
@@ -66,6 +67,7 @@ pub(crate) use file::{
     CompareKind, CompareSpec, PlotSpec, ReferenceMethod, ReferenceSpec, SheetLayer, SheetSpec,
 };
 pub(crate) use keys::{flatten_set, flatten_space, short_key, toml_to_json, value_text};
+pub(crate) use kind::load_scene;
 pub(crate) use reference::{reference_key, reference_params};
 pub(crate) use source::Source;
 pub(crate) use tune::Metric;
@@ -162,13 +164,16 @@ impl Experiment {
     /// rules → quality presets → reference → comparisons → plots and sheets.
     pub(crate) fn load(path: &Path) -> Result<Self> {
         let text = volphot::read_text_capped(path, volphot::TEXT_INPUT_CAP, "experiment file")?;
-        let file: ExperimentFile =
-            toml::from_str(&text).map_err(|e| anyhow::anyhow!(toml_error(&e, &text, path)))?;
+        let file: ExperimentFile = toml::from_str(&text).map_err(|e| {
+            kind::scene_given_for_experiment(path, &text)
+                .unwrap_or_else(|| anyhow::anyhow!(toml_error(&e, &text, path)))
+        })?;
         let source = Source {
             path: path.to_path_buf(),
             text,
         };
         let name = experiment_name(&source, &file)?;
+        checks::scene_keys(&source, &file)?;
         let base = base_scene(&source, &file)?;
         let mut set = Vec::new();
         flatten_set(&file.set, "", &mut set);
@@ -267,7 +272,7 @@ impl Experiment {
 
     /// The cells of the grid with their content addresses. The grid's size is checked
     /// before any cell is built: at most `max_cells` cells unless `yes`, and never more
-    /// than [`MAX_PLANNED_CELLS`].
+    /// than [`MAX_PLANNED_CELLS`]; two cells of one address are refused.
     pub(crate) fn plan_with_hashes(
         &self,
         quality: Quality,
@@ -291,6 +296,7 @@ impl Experiment {
             .iter()
             .map(|c| cell_hash(&c.params, &c.base_dir))
             .collect::<Result<Vec<_>>>()?;
+        self.distinct_scenes(quality, &cells, &hashes)?;
         Ok((cells, hashes))
     }
 
@@ -511,6 +517,21 @@ integrator.nused = [25, 150]
                 "e.toml:3",
                 "nsued",
             ),
+            (
+                "scene = \"s.toml\"\n[axes]\n\"../../integrator/nused\" = [5]\n",
+                "e.toml:3",
+                "`../../integrator/nused` is not a scene key",
+            ),
+            (
+                "scene = \"s.toml\"\n[set]\n\"integrator..nused\" = 5\n",
+                "e.toml:3",
+                "`integrator..nused` is not a scene key",
+            ),
+            (
+                "scene = \"s.toml\"\n[[zip]]\n\"sigma.t \" = [1, 2]\n\"integrator.nused\" = [5, 6]\n",
+                "e.toml:3",
+                "`sigma.t ` is not a scene key",
+            ),
         ];
         for (text, at, what) in cases {
             let p = write(dir.path(), "e.toml", text);
@@ -519,5 +540,81 @@ integrator.nused = [25, 150]
             assert!(msg.contains(at), "{msg} should contain {at}");
             assert!(msg.contains(what), "{msg} should name {what}");
         }
+    }
+
+    /// Each case: the experiment (after `scene = "s.toml"` unless it names scenes on an
+    /// axis), the quality planned, and what the error must say.
+    #[test]
+    fn repeated_values_and_identical_scenes_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "s.toml", &scene());
+        write(dir.path(), "t.toml", &scene());
+        let base = "scene = \"s.toml\"\n";
+        let cases: [(String, Quality, &[&str]); 5] = [
+            (
+                format!("{base}[axes]\n\"integrator.nused\" = [25, 50, 25]\n"),
+                Quality::Default,
+                &["e.toml:3", "`integrator.nused`", "25", "positions 1 and 3"],
+            ),
+            (
+                format!("{base}[axes]\n\"sigma.t\" = [80, 40, 80.0]\n"),
+                Quality::Default,
+                &["e.toml:3", "`sigma.t`", "80", "positions 1 and 3"],
+            ),
+            (
+                format!(
+                    "{base}[[zip]]\n\"sigma.t\" = [40, 80, 40]\n\"integrator.nused\" = [5, 6, 5]\n"
+                ),
+                Quality::Default,
+                &["e.toml:", "zip[0]", "sigma.t = 40", "positions 1 and 3"],
+            ),
+            (
+                format!(
+                    "{base}[axes]\n\"integrator.nused\" = [5, 6]\n[quality.quick]\naxes = {{ \"integrator.nused\" = [10, 10] }}\n"
+                ),
+                Quality::Quick,
+                &[
+                    "e.toml:",
+                    "quality",
+                    "`integrator.nused`",
+                    "10",
+                    "positions 1 and 2",
+                ],
+            ),
+            (
+                "[axes]\nscene = [\"s.toml\", \"t.toml\"]\n\"integrator.nused\" = [5, 6]\n".into(),
+                Quality::Default,
+                &[
+                    "e.toml:2",
+                    "`scene`",
+                    "s.toml",
+                    "t.toml",
+                    "positions 1 and 2",
+                    "same scene",
+                ],
+            ),
+        ];
+        for (text, quality, expected) in &cases {
+            let p = write(dir.path(), "e.toml", text);
+            let err = Experiment::load(&p).and_then(|e| e.plan_with_hashes(*quality, true));
+            let msg = format!(
+                "{:#}",
+                err.err().unwrap_or_else(|| panic!("accepted:\n{text}"))
+            );
+            for what in *expected {
+                assert!(msg.contains(what), "`{msg}` lacks `{what}` for\n{text}");
+            }
+        }
+        // Distinct files and values plan as before.
+        let p = write(
+            dir.path(),
+            "e.toml",
+            "[axes]\nscene = [\"s.toml\"]\n\"integrator.nused\" = [5, 6]\n",
+        );
+        let (cells, _) = Experiment::load(&p)
+            .unwrap()
+            .plan_with_hashes(Quality::Default, true)
+            .unwrap();
+        assert_eq!(cells.len(), 2);
     }
 }

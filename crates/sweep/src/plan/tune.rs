@@ -7,7 +7,7 @@
 //! seed = 7
 //! objective = "rmse"                 # rmse | rmse_corrected | rel_mse | flip | disco_excess, or weights:
 //! # objective = { rmse = 1.0, flip = 0.5 }
-//! budget = { renders = 60 }          # or { seconds = 3600 } (recorded render seconds)
+//! budget = { renders = 60 }          # 1..=1000000, or { seconds = 3600 } (recorded render seconds)
 //! proposal = "tpe"                   # or "random"
 //! random_fraction = 0.33             # share of uniform proposals once a model exists
 //! time_budgets = [10, 30, 60]        # best settings per render time per frame, seconds
@@ -34,9 +34,15 @@ use toml::{Table, Value};
 
 use super::Source;
 use super::flatten_space;
+use super::keys::scene_key;
 
 /// The most fidelity levels (each level is a power of `eta` more work than the last).
 const MAX_LEVELS: u32 = 6;
+
+/// The largest `budget = { renders = … }`: more renders than any study here spends (the
+/// thesis's tune is a few hundred) and than a search reaches in its iteration limit on a
+/// small schedule, while every count planned from it stays far from overflowing.
+const MAX_RENDERS: usize = 1_000_000;
 
 /// `[tune]` as written.
 #[derive(Debug, Clone, Deserialize)]
@@ -232,16 +238,7 @@ impl TuneSpec {
     pub(crate) fn from_file(source: &Source, file: &TuneFile) -> anyhow::Result<Self> {
         let err = |key: &str, msg: String| source.error(&format!("tune.{key}"), msg);
         let objective = objective(&file.objective).map_err(|m| err("objective", m))?;
-        let budget = match (file.budget.renders, file.budget.seconds) {
-            (Some(n), None) if n >= 1 => Budget::Renders(n),
-            (None, Some(s)) if s.is_finite() && s > 0.0 => Budget::Seconds(s),
-            _ => {
-                return Err(err(
-                    "budget",
-                    "`budget`: expected exactly one of `renders` (an integer ≥ 1) or `seconds` (> 0), e.g. { renders = 60 }".into(),
-                ));
-            }
-        };
+        let budget = budget(&file.budget).map_err(|m| err("budget", m))?;
         anyhow::ensure!(
             (0.0..=1.0).contains(&file.random_fraction),
             err(
@@ -295,6 +292,20 @@ impl TuneSpec {
     /// Whether lower levels trace fewer photons.
     pub(crate) fn scales_photons(&self) -> bool {
         self.fidelity.min_photon_fraction < 1.0
+    }
+}
+
+/// `budget = { renders = 60 }` or `{ seconds = 3600 }`.
+fn budget(file: &BudgetFile) -> Result<Budget, String> {
+    match (file.renders, file.seconds) {
+        (Some(n), None) if (1..=MAX_RENDERS).contains(&n) => Ok(Budget::Renders(n)),
+        (Some(n), None) => Err(format!(
+            "`budget` = {{ renders = {n} }}: expected renders in 1..={MAX_RENDERS}"
+        )),
+        (None, Some(s)) if s.is_finite() && s > 0.0 => Ok(Budget::Seconds(s)),
+        _ => Err(format!(
+            "`budget`: expected exactly one of `renders` (an integer in 1..={MAX_RENDERS}) or `seconds` (> 0), e.g. {{ renders = 60 }}"
+        )),
     }
 }
 
@@ -361,6 +372,7 @@ fn space(source: &Source, table: &Table) -> anyhow::Result<Vec<Param>> {
     flatten_space(table, "", &mut flat);
     let mut params = Vec::new();
     for (key, value) in flat {
+        scene_key(&key).map_err(|m| source.error(&format!("tune.space.{key}"), m))?;
         let kind = param_kind(&value)
             .map_err(|m| source.error(&format!("tune.space.{key}"), format!("`{key}`: {m}")))?;
         if key == RESOLUTION_KEY || key == "scene" {

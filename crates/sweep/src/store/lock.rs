@@ -1,9 +1,11 @@
 //! Locks in an output folder: a full run holds the folder's `.lock` exclusively; runs of
 //! selected cells (`--cells`, `--shard`, cluster tasks) and `sweep report` hold it shared,
 //! plus an exclusive lock per cell (`cells/.<hash>.lock`) or reference
-//! (`references/<key>.lock`), so they can work side by side.
+//! (`references/<key>.lock`), so they can work side by side. A `sweep tune` search holds
+//! `.tune.lock` exclusively besides, so a second search on the folder is refused.
 
 use std::fs::File;
+use std::io::Write as _;
 use std::path::Path;
 
 use anyhow::{Context, Result};
@@ -37,6 +39,50 @@ pub(crate) fn lock_folder(out: &OutputDir, exclusive: bool) -> Result<FolderLock
             Err(e).with_context(|| format!("locking {}", path.display()))
         }
     }
+}
+
+/// Holds an output folder's tune lock for the duration of a search.
+pub(crate) struct TuneLock {
+    _file: File,
+}
+
+/// Locks the output folder for one `sweep tune` search, or fails at once naming the
+/// search that holds it. Two searches on one folder would each find cells the other is
+/// rendering, count them as failed and promote other configurations than one search. The
+/// rungs of a search (and its Slurm array tasks) still take the folder lock shared, so
+/// this is a lock file of its own; its holder writes its process id into it for the
+/// error of the next.
+pub(crate) fn lock_tune(out: &OutputDir) -> Result<TuneLock> {
+    std::fs::create_dir_all(out.root())
+        .with_context(|| format!("creating {}", out.root().display()))?;
+    let path = out.root().join(".tune.lock");
+    let mut file = lock_file(&path)?;
+    match file.try_lock() {
+        Ok(()) => {
+            file.set_len(0)
+                .and_then(|()| write!(file, "{}", std::process::id()))
+                .with_context(|| format!("writing {}", path.display()))?;
+            Ok(TuneLock { _file: file })
+        }
+        Err(std::fs::TryLockError::WouldBlock) => anyhow::bail!(
+            "{} is being tuned by another `sweep tune`{}; wait for it to finish or tune into another --output (lock {})",
+            out.root().display(),
+            lock_holder(&path).map_or(String::new(), |pid| format!(" (process {pid})")),
+            path.display()
+        ),
+        Err(std::fs::TryLockError::Error(e)) => {
+            Err(e).with_context(|| format!("locking {}", path.display()))
+        }
+    }
+}
+
+/// The process id a lock's holder wrote into it, if it reads as one.
+fn lock_holder(path: &Path) -> Option<u32> {
+    volphot::read_text_capped(path, 32, "lock file")
+        .ok()?
+        .trim()
+        .parse()
+        .ok()
 }
 
 /// An exclusive lock on one cell, held while it is rendered and written.
@@ -103,6 +149,22 @@ mod tests {
         let _b = lock_folder(&out, false).expect("shared locks coexist");
         assert!(lock_folder(&out, true).is_err());
         drop(a);
+    }
+
+    #[test]
+    fn a_tune_lock_names_its_holder_and_leaves_the_folder_lock_to_the_rungs() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = OutputDir::new(tmp.path());
+        let held = lock_tune(&out).unwrap();
+        let err = lock_tune(&out).err().expect("held").to_string();
+        assert!(err.contains(&tmp.path().display().to_string()), "{err}");
+        assert!(
+            err.contains(&format!("(process {})", std::process::id())),
+            "{err}"
+        );
+        let _rung = lock_folder(&out, false).expect("a rung of the search");
+        drop(held);
+        lock_tune(&out).expect("free again");
     }
 
     #[test]

@@ -20,7 +20,9 @@ use std::path::{Path, PathBuf};
 
 pub(crate) use address::{cell_hash, reference_hash, volume_identity};
 pub(crate) use archive::recorded_but_absent;
-pub(crate) use lock::{CellLock, cell_is_locked, lock_folder, lock_reference, try_lock_cell};
+pub(crate) use lock::{
+    CellLock, cell_is_locked, lock_folder, lock_reference, lock_tune, try_lock_cell,
+};
 pub(crate) use pool::{ReferencePool, verified_reference};
 pub(crate) use records::*;
 pub(crate) use staging::{StagedDir, clean_stale};

@@ -37,6 +37,45 @@ pub(crate) fn bracket_renders(bracket: &[Rung]) -> usize {
     bracket.iter().map(|r| r.configs).sum()
 }
 
+/// Hyperband iterations at most (a budget normally ends the search long before).
+pub(crate) const MAX_ITERATIONS: u32 = 10_000;
+
+/// How many brackets a budget of `budget` renders starts, and their renders, as the search
+/// starts them: each iteration starts every bracket that still fits, for at most
+/// [`MAX_ITERATIONS`] iterations. Computed without walking the iterations (the budget may
+/// hold many): the whole iterations that fit, then the few passes over what is left.
+pub(crate) fn brackets_within(
+    brackets: &[Vec<Rung>],
+    contexts: usize,
+    budget: usize,
+) -> (usize, usize) {
+    let costs: Vec<usize> = brackets
+        .iter()
+        .map(|b| bracket_renders(b) * contexts)
+        .collect();
+    let iteration: usize = costs.iter().sum();
+    if iteration == 0 {
+        return (0, 0);
+    }
+    let whole = (budget / iteration).min(MAX_ITERATIONS as usize);
+    let (mut started, mut planned) = (whole * costs.len(), whole * iteration);
+    // Less than one iteration is left, so each pass starts one bracket at least and the
+    // passes end within `iteration / min(costs)`.
+    for _ in whole..MAX_ITERATIONS as usize {
+        let before = started;
+        for &cost in &costs {
+            if planned + cost <= budget {
+                planned += cost;
+                started += 1;
+            }
+        }
+        if started == before {
+            break;
+        }
+    }
+    (started, planned)
+}
+
 /// Where a level sits between the lowest (0) and the target (1), geometrically.
 fn position(f: &Fidelity, level: u32) -> f64 {
     if f.levels <= 1 {
@@ -118,6 +157,47 @@ mod tests {
 
     fn bracket_renders_of(b: &[(usize, u32)]) -> usize {
         b.iter().map(|r| r.0).sum()
+    }
+
+    /// The search's own walk: iteration after iteration, every bracket that fits.
+    fn walked(brackets: &[Vec<Rung>], contexts: usize, budget: usize) -> (usize, usize) {
+        let (mut started, mut planned) = (0, 0);
+        for _ in 0..MAX_ITERATIONS {
+            let before = started;
+            for b in brackets {
+                let cost = bracket_renders(b) * contexts;
+                if planned + cost <= budget {
+                    planned += cost;
+                    started += 1;
+                }
+            }
+            if started == before {
+                break;
+            }
+        }
+        (started, planned)
+    }
+
+    #[test]
+    fn brackets_within_a_budget_match_the_walk_and_stop_at_the_iteration_limit() {
+        for (levels, eta) in [(1, 3), (2, 3), (3, 3), (5, 3), (4, 2)] {
+            let brackets = schedule(levels, eta);
+            for contexts in [1, 3] {
+                for budget in (0..700).chain([60_000, 61_234, 1_000_000]) {
+                    assert_eq!(
+                        brackets_within(&brackets, contexts, budget),
+                        walked(&brackets, contexts, budget),
+                        "levels {levels}, eta {eta}, {contexts} context(s), budget {budget}"
+                    );
+                }
+            }
+        }
+        // Two levels: 6 renders per iteration, so the limit caps a huge budget.
+        let most = MAX_ITERATIONS as usize;
+        assert_eq!(
+            brackets_within(&schedule(2, 3), 1, usize::MAX / 2),
+            (2 * most, 6 * most)
+        );
     }
 
     #[test]

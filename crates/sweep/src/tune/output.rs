@@ -10,7 +10,7 @@ use anyhow::{Context, Result};
 
 use super::analysis::{bins_for, epsilon_squared, pareto_front, spearman};
 use super::cells::TuneCells;
-use super::hyperband::{bracket_renders, schedule};
+use super::hyperband::{MAX_ITERATIONS, bracket_renders, brackets_within, schedule};
 use super::search::Evaluation;
 use crate::plan::Experiment;
 use crate::plan::{Budget, ParamKind, Proposal, TuneSpec};
@@ -691,8 +691,13 @@ pub(crate) fn dry_run(exp: &Experiment, spec: &TuneSpec, out: &OutputDir) -> Res
                 exp.path().display(),
                 smallest * contexts
             );
+            let limit = if started == brackets.len() * MAX_ITERATIONS as usize {
+                format!("; the search stops after {MAX_ITERATIONS} Hyperband iterations")
+            } else {
+                String::new()
+            };
             println!(
-                "  budget {n} renders: {started} bracket(s), at most {planned} renders (fewer when a proposal repeats a cell)"
+                "  budget {n} renders: {started} bracket(s), at most {planned} renders (fewer when a proposal repeats a cell){limit}"
             );
         }
         Budget::Seconds(t) => println!(
@@ -708,29 +713,6 @@ pub(crate) fn dry_run(exp: &Experiment, spec: &TuneSpec, out: &OutputDir) -> Res
     }
     println!("  output: {}", out.root().display());
     Ok(ExitCode::SUCCESS)
-}
-
-/// How many brackets a render budget starts, and their renders.
-fn brackets_within(
-    brackets: &[Vec<super::hyperband::Rung>],
-    contexts: usize,
-    n: usize,
-) -> (usize, usize) {
-    let (mut started, mut planned) = (0, 0);
-    loop {
-        let mut any = false;
-        for b in brackets {
-            let cost = bracket_renders(b) * contexts;
-            if planned + cost <= n {
-                planned += cost;
-                started += 1;
-                any = true;
-            }
-        }
-        if !any {
-            return (started, planned);
-        }
-    }
 }
 
 /// Builds (and so validates) a cell for every context at the lowest and the target level

@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 
 use super::cells::{CellResult, TuneCells};
-use super::hyperband::{Rung, bracket_renders, schedule};
+use super::hyperband::{MAX_ITERATIONS, Rung, bracket_renders, schedule};
 use super::propose::{Observed, Origin, propose, stream};
 use super::{TuneMode, TuneOptions, output};
 use crate::backend::Run;
@@ -16,10 +16,7 @@ use crate::plan::default_output;
 use crate::plan::{Budget, TuneSpec};
 use crate::plan::{Experiment, Quality};
 use crate::render::{CellFilter, Selection};
-use crate::store::{OutputDir, cell_hash, check_owner, is_done, read_plan, write_plan};
-
-/// Hyperband iterations at most (a budget normally ends the search long before).
-const MAX_ITERATIONS: u32 = 10_000;
+use crate::store::{OutputDir, cell_hash, check_owner, is_done, lock_tune, read_plan, write_plan};
 
 /// One configuration evaluated at one level (on every context).
 #[derive(Debug, Clone)]
@@ -93,6 +90,7 @@ fn search(
     out: OutputDir,
     opts: &TuneOptions,
 ) -> Result<ExitCode> {
+    let _lock = lock_tune(&out)?;
     check_owner(&out, &exp.name)?;
     let cells = TuneCells::new(exp, spec)?;
     let multi = crate::progress::multi(opts.quiet);
