@@ -34,9 +34,10 @@ use super::params::{BoxParams, NormalizeKind, SceneParams, VolumeParams, validat
 use super::settings::IntegratorParams;
 use crate::error::{Error, Result};
 use crate::medium::{
-    DEFAULT_BRICK_SIZE, MappingKind, SigmaMapping, SigmaParams, TransferKind, TransferParams,
+    DEFAULT_BRICK_SIZE, MappingKind, SigmaMapping, SigmaParams, TransferFunction, TransferKind,
+    TransferParams,
 };
-use crate::util::{TEXT_INPUT_CAP, byte_size, read_text_capped};
+use crate::util::{TEXT_INPUT_CAP, byte_size, open_regular, read_text_capped};
 use crate::volume::{DATASETS, VoxelType};
 use syntax::{Param, Statement, Value};
 
@@ -88,10 +89,10 @@ impl fmt::Display for Unmapped {
         write!(
             f,
             "{}:{}: {} — {}",
-            self.file.display(),
+            printable(&self.file.display().to_string()),
             self.line,
-            self.what,
-            self.reason
+            printable(&self.what),
+            printable(&self.reason)
         )
     }
 }
@@ -608,8 +609,13 @@ impl Importer {
         self.volume_seen = true;
         let mut p = Params::of(s);
         let volume = raw_volume(s, &mut p, self.ctm, &self.output_dir, &mut self.notes)?;
-        let (transfer, sigma, g) =
-            raw_volume_medium(s, &mut p, &self.output_dir, &mut self.unmapped)?;
+        let (transfer, sigma, g) = raw_volume_medium(
+            s,
+            &mut p,
+            &self.output_dir,
+            &mut self.unmapped,
+            &mut self.notes,
+        )?;
         self.params.volume = volume;
         self.params.transfer = transfer;
         self.params.sigma = sigma;
@@ -696,7 +702,7 @@ impl Importer {
         Ok(PbrtImport {
             params: self.params,
             unmapped: self.unmapped,
-            notes: self.notes,
+            notes: self.notes.iter().map(|n| printable(n)).collect(),
             integrator_keys: self.integrator_keys,
             source: source.to_path_buf(),
         })
@@ -857,7 +863,13 @@ fn raw_volume(
         ..VolumeParams::default()
     };
     let path = s.file.parent().unwrap_or(Path::new(".")).join(&raw);
-    match (path.exists(), registered_match(&raw, dims, voxel)) {
+    // A device or FIFO would reach the render as "0 bytes" (or block it): refuse it here.
+    let exists = match open_regular(&path, "RAW volume file") {
+        Ok(_) => true,
+        Err(Error::Io { error, .. }) if error.kind() == std::io::ErrorKind::NotFound => false,
+        Err(e) => return Err(s.error(format!("\"string rawfile\": {e}"))),
+    };
+    match (exists, registered_match(&raw, dims, voxel)) {
         (false, Some(name)) => {
             notes.push(format!(
                 "rawfile `{}` ({}:{}) is not there; its size and type match the registered dataset `{name}`, which is used instead",
@@ -931,6 +943,7 @@ fn raw_volume_medium(
     p: &mut Params,
     output_dir: &Path,
     unmapped: &mut Vec<Unmapped>,
+    notes: &mut Vec<String>,
 ) -> Result<(TransferParams, SigmaParams, f32)> {
     let transfer_on = p.bool("transfer")?.unwrap_or(false);
     if !transfer_on && let Some(table) = p.take("transferfile") {
@@ -946,10 +959,7 @@ fn raw_volume_medium(
         }
         (true, Some(file), threshold) => {
             transfer.kind = TransferKind::Pgm;
-            transfer.file = Some(relative_to(
-                &s.file.parent().unwrap_or(Path::new(".")).join(file),
-                output_dir,
-            ));
+            transfer.file = Some(pgm_transfer(s, &file, output_dir, notes)?);
             if let Some(t) = threshold {
                 unmapped.push(Unmapped::at(s, Some(&t), "ignored: the transfer function applies (the threshold is the 16-bit rule without one, §7.2.1)"));
             }
@@ -976,6 +986,47 @@ fn raw_volume_medium(
     SigmaMapping::create(&sigma).map_err(|e| s.error(e.within("sigma").to_string()))?;
     let g = p.float("g")?.unwrap_or(0.0) as f32;
     Ok((transfer, sigma, g))
+}
+
+/// The `transferfile` (relative to the statement's file), read now so that the render never
+/// meets it first: a file that is not a 256×256 PGM is an error naming it (never quoting
+/// it); a missing one is a note with the resolved path and an alternative, as a missing
+/// `rawfile` is. Returns the path relative to `output_dir`.
+fn pgm_transfer(
+    s: &Statement,
+    file: &str,
+    output_dir: &Path,
+    notes: &mut Vec<String>,
+) -> Result<PathBuf> {
+    let path = s.file.parent().unwrap_or(Path::new(".")).join(file);
+    match TransferFunction::from_pgm(&path) {
+        Ok(_) => {}
+        Err(Error::Io { error, .. }) if error.kind() == std::io::ErrorKind::NotFound => {
+            notes.push(format!(
+                "transferfile `{}` ({}:{}) does not exist: the render fails until it is there; or write [transfer] kind = \"points\" in its place (points = [[0.0, 0.0], [1.0, 1.0]] uses the densities as they are)",
+                path.display(),
+                s.file.display(),
+                s.line
+            ));
+        }
+        Err(e) => return Err(s.error(format!("\"string transferfile\": {e}"))),
+    }
+    Ok(relative_to(&path, output_dir))
+}
+
+/// `text` with its control characters escaped (`\n`, `\u{1b}`): a string's `\n` escape
+/// would end a TOML comment and make the rest of its line TOML, and an escape sequence
+/// would reach the terminal.
+fn printable(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 /// `path` relative to `base` when both are on the same root, else absolute.
@@ -1145,7 +1196,7 @@ impl PbrtImport {
         }
         let mut out = format!(
             "# Imported by `sweep import` from {} (pbrt-v1, thesis §7).\n",
-            self.source.display()
+            printable(&self.source.display().to_string())
         );
         for note in &self.notes {
             out.push_str(&format!("# note: {note}\n"));

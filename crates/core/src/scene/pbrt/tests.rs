@@ -496,6 +496,45 @@ fn foreign_files_are_named_never_quoted() {
     }
 }
 
+#[test]
+fn a_transferfile_that_is_not_a_pgm_is_named_not_quoted() {
+    let (dir, _) = thesis_dir();
+    std::fs::write(
+        dir.path().join("voldata/verylowcut.pgm"),
+        "root:x:0:0:SECRET:/root:/bin/bash\n",
+    )
+    .unwrap();
+    let path = write(dir.path(), "t.pbrt", THESIS_STYLE);
+    let e = import_within_30s(&path, dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(!e.contains("SECRET"), "{e}");
+    assert!(
+        e.contains("t.pbrt:24:1")
+            && e.contains("transferfile")
+            && e.contains("verylowcut.pgm")
+            && e.contains("\"P2\" or \"P5\""),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_missing_transferfile_is_flagged_at_import() {
+    let import = import_text(THESIS_STYLE).unwrap();
+    let note = import
+        .notes
+        .iter()
+        .find(|n| n.contains("transferfile"))
+        .unwrap_or_else(|| panic!("no note: {:?}", import.notes));
+    assert!(
+        note.contains("voldata/verylowcut.pgm")
+            && note.contains("t.pbrt:24")
+            && note.contains("kind = \"points\""),
+        "the resolved path, the statement and an alternative: {note}"
+    );
+    assert!(import.to_toml().contains("# note: transferfile"));
+}
+
 /// A mistake written into the thesis-style scene (`from` → `to`), where its error must be
 /// located and what the message must say.
 type Mistake<'a> = (&'a str, &'a str, &'a str, &'a [&'a str]);
@@ -607,4 +646,51 @@ fn quote_parameter_and_character_mistakes_are_named_where_written() {
 fn a_leading_byte_order_mark_is_skipped() {
     let import = import_text(&format!("\u{feff}{THESIS_STYLE}")).unwrap();
     assert_eq!(import.params.camera.fov, 30.0);
+}
+
+#[test]
+fn unmapped_text_cannot_break_out_of_its_toml_comment() {
+    // A string's `\n` escape is a newline: written raw, it would end the comment and make
+    // the rest of the line TOML.
+    let scene = THESIS_STYLE.replace(
+        "Shape \"sphere\"",
+        "Shape \"x\\n[film]\\nexposure = 3\\n#\"",
+    );
+    let import = import_text(&scene).unwrap();
+    let text = import.to_toml();
+    let back = SceneParams::from_toml(&text, Path::new("x.toml")).unwrap();
+    assert_eq!(back, import.params, "{text}");
+    assert!(text.contains("Shape \"x\\n[film]"), "{text}");
+    let shown = import
+        .unmapped
+        .iter()
+        .map(|u| u.to_string())
+        .collect::<String>();
+    assert!(!shown.contains('\n'), "{shown}");
+}
+
+#[test]
+fn a_rawfile_that_is_not_a_regular_file_is_refused_at_import() {
+    let (dir, _) = thesis_dir();
+    let fifo = dir.path().join("voldata/pipe.raw");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    assert!(made.is_ok_and(|s| s.success()), "mkfifo");
+    for (raw, kind) in [
+        ("/dev/zero", "character device"),
+        ("voldata/pipe.raw", "FIFO"),
+        ("voldata", "a folder"),
+    ] {
+        let scene = THESIS_STYLE.replace("voldata/foot.raw", raw);
+        let path = write(dir.path(), "t.pbrt", &scene);
+        let e = import_within_30s(&path, dir.path())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("t.pbrt:24:1")
+                && e.contains("rawfile")
+                && e.contains(raw)
+                && e.contains(kind),
+            "{raw}: {e}"
+        );
+    }
 }
