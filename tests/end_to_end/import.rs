@@ -240,3 +240,127 @@ fn the_thesis_foot_scene_finds_the_registered_foot() {
         );
     }
 }
+
+/// `sweep import FILE -o FILE.toml` in `dir`, killed after 30 s (a hang is a failure).
+fn import_within_30s(dir: &Path, file: &str) -> (std::process::Output, std::path::PathBuf) {
+    let out = dir.join(format!("{file}.toml"));
+    let output = crate::reliability::output_within(
+        sweep()
+            .arg("import")
+            .arg(dir.join(file))
+            .arg("-o")
+            .arg(&out),
+        30,
+    );
+    (output, out)
+}
+
+#[test]
+fn include_graphs_devices_and_foreign_files_fail_fast_naming_the_chain() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    write_data(dir);
+    // f0 … f14, each including the next four times: 4^14 splices if nothing bounds them.
+    for i in 0..14 {
+        let line = format!("Include \"f{}.pbrt\"\n", i + 1);
+        std::fs::write(dir.join(format!("f{i}.pbrt")), line.repeat(4)).unwrap();
+    }
+    std::fs::write(dir.join("f14.pbrt"), THESIS_SCENE).unwrap();
+    std::fs::write(dir.join("a.pbrt"), "Include \"b.pbrt\"\n").unwrap();
+    std::fs::write(dir.join("b.pbrt"), "Include \"a.pbrt\"\n").unwrap();
+    // Sparse: 1 GiB long without a block written.
+    let huge = std::fs::File::create(dir.join("huge.pbrt")).unwrap();
+    huge.set_len(1 << 30).unwrap();
+    // Reads as pbrt tokens, so it used to be listed, content and all, as "not mapped".
+    std::fs::write(dir.join("token.env"), "API_TOKEN \"SECRET\"\n").unwrap();
+    std::fs::write(dir.join("voldata/secret.pgm"), "root:x:0:0:SECRET:/root\n").unwrap();
+    let scene_with = |name: &str, first: &str, scene: &str| {
+        std::fs::write(dir.join(name), format!("{first}\n{scene}")).unwrap();
+    };
+    scene_with("zero.pbrt", "Include \"/dev/zero\"", THESIS_SCENE);
+    scene_with("sparse.pbrt", "Include \"huge.pbrt\"", THESIS_SCENE);
+    scene_with("token.pbrt", "Include \"token.env\"", THESIS_SCENE);
+    let foreign_table = THESIS_SCENE.replace("voldata/cut.pgm", "voldata/secret.pgm");
+    scene_with("table.pbrt", "", &foreign_table);
+    for (file, needles) in [
+        (
+            "f0.pbrt",
+            &[
+                "1000000 tokens",
+                "64 MiB",
+                "f0.pbrt:1 → f1.pbrt:",
+                "Include \"f",
+            ][..],
+        ),
+        (
+            "a.pbrt",
+            &["includes itself", "a.pbrt:1 → b.pbrt:1 → a.pbrt"],
+        ),
+        (
+            "zero.pbrt",
+            &["zero.pbrt:1:1", "/dev/zero", "character device"],
+        ),
+        ("sparse.pbrt", &["sparse.pbrt:1:1", "huge.pbrt", "16 MiB"]),
+        (
+            "token.pbrt",
+            &["token.pbrt:1:1", "token.env", "not a pbrt scene file"],
+        ),
+        (
+            "table.pbrt",
+            &["transferfile", "secret.pgm", "\"P2\" or \"P5\""],
+        ),
+    ] {
+        let (output, out) = import_within_30s(dir, file);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success(), "{file} imported:\n{stderr}");
+        for needle in needles {
+            assert!(
+                stderr.contains(needle),
+                "{file}: `{needle}` not in:\n{stderr}"
+            );
+        }
+        assert!(
+            !stderr.contains("SECRET"),
+            "{file}: content quoted:\n{stderr}"
+        );
+        assert!(!out.exists(), "{file}: nothing written");
+    }
+}
+
+#[test]
+fn a_missing_transferfile_is_flagged_at_import_and_named_at_render() {
+    let tmp = tempfile::tempdir().unwrap();
+    write_data(tmp.path());
+    let pbrt = tmp.path().join("gone.pbrt");
+    std::fs::write(
+        &pbrt,
+        THESIS_SCENE.replace("voldata/cut.pgm", "voldata/gone.pgm"),
+    )
+    .unwrap();
+    let toml = tmp.path().join("scenes/gone.toml");
+    let output = run_ok(sweep().arg("import").arg(&pbrt).arg("-o").arg(&toml));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("note: transferfile")
+            && stderr.contains("voldata/gone.pgm")
+            && stderr.contains("gone.pbrt:21")
+            && stderr.contains("kind = \"points\""),
+        "the import flags it, with the resolved path and an alternative:\n{stderr}"
+    );
+    let text = std::fs::read_to_string(&toml).unwrap();
+    assert!(text.contains("# note: transferfile"), "{text}");
+    let render = sweep()
+        .arg("render")
+        .arg(&toml)
+        .arg("-o")
+        .arg(tmp.path().join("out"))
+        .args(["--threads", "1", "-q"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&render.stderr);
+    assert!(!render.status.success());
+    assert!(
+        stderr.contains("gone.pgm: does not exist") && stderr.contains("transfer.file"),
+        "the render names the key, not only the OS error:\n{stderr}"
+    );
+}

@@ -31,7 +31,7 @@ spp = 4
 }
 
 /// Runs `cmd`, killing it after `seconds` (a hang is a failure, not a stuck test).
-fn output_within(cmd: &mut Command, seconds: u64) -> Output {
+pub(crate) fn output_within(cmd: &mut Command, seconds: u64) -> Output {
     let child = cmd
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())

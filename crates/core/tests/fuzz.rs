@@ -1233,3 +1233,114 @@ fn fuzz_dicom_folders_long() {
         check_dicom_folder,
     );
 }
+
+// --- pbrt Include graphs ------------------------------------------------------------------
+
+/// What one `Include` of a generated graph names.
+#[derive(Debug, Clone)]
+enum IncludeTarget {
+    /// Another file of the graph (by index, modulo the graph's size): chains, fan-out and
+    /// cycles.
+    File(usize),
+    Missing,
+    Folder,
+    DevZero,
+    Fifo,
+    /// A sparse 1 GiB file.
+    Huge,
+    /// A file that reads as pbrt tokens but is someone's secret.
+    Foreign,
+}
+
+/// One file of a graph: whether it holds the whole small scene, and its Includes, each
+/// written up to four times.
+type GraphFile = (bool, Vec<(IncludeTarget, usize)>);
+
+fn include_graph() -> impl Strategy<Value = Vec<GraphFile>> {
+    let target = prop_oneof![
+        10 => (0usize..5).prop_map(IncludeTarget::File),
+        1 => Just(IncludeTarget::Missing),
+        1 => Just(IncludeTarget::Folder),
+        1 => Just(IncludeTarget::DevZero),
+        1 => Just(IncludeTarget::Fifo),
+        1 => Just(IncludeTarget::Huge),
+        1 => Just(IncludeTarget::Foreign),
+    ];
+    let includes = prop::collection::vec((target, 1usize..=4), 0..4);
+    prop::collection::vec((any::<bool>(), includes), 1..=5)
+}
+
+const PBRT_SCENE: &str = "LookAt 0.5 -2 0.5  0.5 0.5 0.5  0 0 1\nCamera \"perspective\" \"float fov\" [30]\nWorldBegin\nLightSource \"point\" \"color I\" [5 5 5] \"point from\" [0.5 -1 2]\nVolume \"rawvolumegrid\" \"integer nx\" 2 \"integer ny\" 2 \"integer nz\" 2 \"string rawfile\" \"v.raw\"\nWorldEnd\n";
+
+/// The files every graph may name, made once in the shared case folder.
+fn include_fixtures(dir: &Path) {
+    if dir.join("v.raw").exists() {
+        return;
+    }
+    write(&dir.join("v.raw"), &[0u8; 8]);
+    write(&dir.join("secret.env"), b"API_TOKEN \"SECRET\"\n");
+    std::fs::create_dir(dir.join("folder.pbrt")).unwrap();
+    let huge = std::fs::File::create(dir.join("huge.pbrt")).unwrap();
+    huge.set_len(1 << 30).unwrap();
+    let made = std::process::Command::new("mkfifo")
+        .arg(dir.join("pipe.pbrt"))
+        .status();
+    assert!(made.is_ok_and(|s| s.success()), "mkfifo");
+}
+
+fn check_include_graph(dir: &Path, files: Vec<GraphFile>) -> Result<Verdict, String> {
+    include_fixtures(dir);
+    for (k, (scene, includes)) in files.iter().enumerate() {
+        let mut text = if *scene {
+            PBRT_SCENE.to_string()
+        } else {
+            String::new()
+        };
+        for (target, times) in includes {
+            let name = match target {
+                IncludeTarget::File(i) => format!("g{}.pbrt", i % files.len()),
+                IncludeTarget::Missing => "gone.pbrt".into(),
+                IncludeTarget::Folder => "folder.pbrt".into(),
+                IncludeTarget::DevZero => "/dev/zero".into(),
+                IncludeTarget::Fifo => "pipe.pbrt".into(),
+                IncludeTarget::Huge => "huge.pbrt".into(),
+                IncludeTarget::Foreign => "secret.env".into(),
+            };
+            text.push_str(&format!("Include \"{name}\"\n").repeat(*times));
+        }
+        write(&dir.join(format!("g{k}.pbrt")), text.as_bytes());
+    }
+    let (shown, verdict) = match volphot::import_pbrt(&dir.join("g0.pbrt"), dir) {
+        Ok(import) => (import.to_toml(), Verdict::Accepted),
+        Err(e) => (e.to_string(), Verdict::Rejected),
+    };
+    if shown.contains("SECRET") {
+        return Err(format!("a foreign file's content is quoted: {shown}"));
+    }
+    // Every rejection names a pbrt file: the scene, or the file and line of the Include.
+    if matches!(verdict, Verdict::Rejected) && !shown.contains(".pbrt:") {
+        return Err(format!("unlocated error `{shown}` for {files:?}"));
+    }
+    Ok(verdict)
+}
+
+#[test]
+fn fuzz_pbrt_include_graphs() {
+    fuzz(
+        "pbrt_include_graphs",
+        CI_CASES,
+        include_graph(),
+        check_include_graph,
+    );
+}
+
+#[test]
+#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+fn fuzz_pbrt_include_graphs_long() {
+    fuzz(
+        "pbrt_include_graphs",
+        LONG_CASES,
+        include_graph(),
+        check_include_graph,
+    );
+}

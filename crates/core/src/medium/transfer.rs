@@ -24,6 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use super::colour::ColourTransfer;
 use crate::error::{Error, Result};
+use crate::util::{TEXT_INPUT_CAP, escaped_prefix, read_bytes_capped};
 use crate::volume::NormalizationRecord;
 
 /// A 1-D transfer function over normalised density.
@@ -190,7 +191,15 @@ impl TransferFunction {
                     Error::parameter("file", "(missing)", "the path of a 256×256 PGM image")
                 })?;
                 let path = base.join(file);
-                Self::from_pgm(&path)
+                Self::from_pgm(&path).map_err(|e| match e {
+                    Error::Io { path, error } if error.kind() == std::io::ErrorKind::NotFound => {
+                        Error::format(
+                            &path,
+                            "does not exist; `transfer.file` names the 256×256 PGM transfer function, relative to the scene file (or use kind = \"points\")",
+                        )
+                    }
+                    e => e,
+                })
             }
             TransferKind::Points => {
                 let points = params.points.as_ref().ok_or_else(|| {
@@ -374,9 +383,10 @@ impl TransferFunction {
         Ok(TransferFunction::Points(points.to_vec()))
     }
 
-    /// Reads the thesis's PGM transfer function (P2 or P5, 256×256).
+    /// Reads the thesis's PGM transfer function (P2 or P5, 256×256): a regular file of at
+    /// most 16 MiB (a device or a FIFO named by mistake is refused, not read).
     pub fn from_pgm(path: &Path) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bytes = read_bytes_capped(path, TEXT_INPUT_CAP, "PGM transfer function")?;
         let image = parse_pgm(&bytes).map_err(|m| Error::format(path, m))?;
         if image.width != 256 || image.height != 256 {
             return Err(Error::format(
@@ -474,8 +484,10 @@ pub fn parse_pgm(bytes: &[u8]) -> std::result::Result<Pgm, String> {
     let mut reader = PgmReader { bytes, pos: 0 };
     let magic = reader.token()?;
     if magic != "P2" && magic != "P5" {
+        // A few escaped bytes only: the file may be any file (`/etc/passwd`).
         return Err(format!(
-            "not a greyscale PGM: magic is {magic:?}, expected \"P2\" or \"P5\""
+            "not a greyscale PGM: it starts with `{}`, expected the magic \"P2\" or \"P5\"",
+            escaped_prefix(bytes, 4)
         ));
     }
     let width = reader.number("width")? as usize;
@@ -667,6 +679,45 @@ mod tests {
                 .contains("above maxval")
         );
         assert!(parse_pgm(b"P2\n2 x\n10\n").unwrap_err().contains("height"));
+    }
+
+    #[test]
+    fn foreign_endless_and_missing_files_are_named_never_quoted_or_read_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let passwd = dir.path().join("passwd.pgm");
+        std::fs::write(&passwd, "root:x:0:0:SECRET:/root:/bin/bash\n").unwrap();
+        let e = TransferFunction::from_pgm(&passwd).unwrap_err().to_string();
+        assert!(
+            e.contains("passwd.pgm") && e.contains("\"P2\" or \"P5\""),
+            "names the file and the magic expected: {e}"
+        );
+        assert!(!e.contains("SECRET") && !e.contains("x:0"), "{e}");
+        // `/dev/zero` never ends: refused by its kind, on a thread so a regression fails.
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let result = TransferFunction::from_pgm(Path::new("/dev/zero"));
+            let _ = tx.send(result.map(|_| ()).map_err(|e| e.to_string()));
+        });
+        let e = rx
+            .recv_timeout(std::time::Duration::from_secs(30))
+            .expect("/dev/zero was read for 30 s")
+            .unwrap_err();
+        assert!(
+            e.contains("/dev/zero") && e.contains("character device"),
+            "{e}"
+        );
+        let params = TransferParams {
+            kind: TransferKind::Pgm,
+            file: Some("gone.pgm".into()),
+            ..TransferParams::default()
+        };
+        let e = TransferFunction::create(&params, dir.path(), &record(0.0, 255.0, 255.0))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("gone.pgm") && e.contains("does not exist") && e.contains("transfer.file"),
+            "{e}"
+        );
     }
 
     #[test]

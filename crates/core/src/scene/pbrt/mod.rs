@@ -24,6 +24,7 @@ mod syntax;
 use std::collections::HashMap;
 use std::fmt;
 use std::path::{Component, Path, PathBuf};
+use std::rc::Rc;
 
 use glam::{DMat4, DVec3};
 
@@ -33,8 +34,10 @@ use super::params::{BoxParams, NormalizeKind, SceneParams, VolumeParams, validat
 use super::settings::IntegratorParams;
 use crate::error::{Error, Result};
 use crate::medium::{
-    DEFAULT_BRICK_SIZE, MappingKind, SigmaMapping, SigmaParams, TransferKind, TransferParams,
+    DEFAULT_BRICK_SIZE, MappingKind, SigmaMapping, SigmaParams, TransferFunction, TransferKind,
+    TransferParams,
 };
+use crate::util::{TEXT_INPUT_CAP, byte_size, open_regular, read_text_capped};
 use crate::volume::{DATASETS, VoxelType};
 use syntax::{Param, Statement, Value};
 
@@ -70,7 +73,7 @@ impl Unmapped {
     /// `statement` (or only its parameter `what`) not mapped, because of `reason`.
     fn at(statement: &Statement, what: Option<&Param>, reason: &str) -> Self {
         Unmapped {
-            file: statement.file.clone(),
+            file: statement.file.to_path_buf(),
             line: statement.line,
             what: match what {
                 Some(p) => format!("{}: \"{} {}\"", statement.head(), p.ty, p.name),
@@ -86,10 +89,10 @@ impl fmt::Display for Unmapped {
         write!(
             f,
             "{}:{}: {} — {}",
-            self.file.display(),
+            printable(&self.file.display().to_string()),
             self.line,
-            self.what,
-            self.reason
+            printable(&self.what),
+            printable(&self.reason)
         )
     }
 }
@@ -121,31 +124,177 @@ impl fmt::Display for Unmapped {
 /// # Ok(()) }
 /// ```
 pub fn import_pbrt(path: &Path, output_dir: &Path) -> Result<PbrtImport> {
-    let statements = read_statements(path, 0)?;
+    let mut splicer = Splicer::default();
+    splicer.splice(path)?;
     let mut importer = Importer::new(output_dir);
-    for statement in &statements {
+    for statement in &splicer.out {
         importer.statement(statement)?;
     }
     importer.finish(path)
 }
 
-/// Parses `path`, splicing `Include`d files in place (relative to the including file).
-fn read_statements(path: &Path, depth: usize) -> Result<Vec<Statement>> {
-    let src = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let mut out = Vec::new();
-    for statement in syntax::parse(&src, path)? {
-        if statement.directive != "Include" {
-            out.push(statement);
-            continue;
+/// The most a scene with everything it includes may hold, a file counted each time an
+/// `Include` splices it: 15 files each including the next four times would splice 4¹⁴
+/// copies (past 60 s and 4 GB before these limits existed). The thesis's scenes hold a few
+/// hundred tokens.
+const MAX_TOKENS: usize = 1_000_000;
+const MAX_BYTES: u64 = 64 << 20;
+/// How deep `Include`s may nest.
+const MAX_INCLUDE_DEPTH: usize = 16;
+
+/// A file read once and spliced as often as it is included.
+struct SceneFile {
+    /// Its canonical path: a file that includes itself, through any path, is a cycle.
+    canonical: PathBuf,
+    statements: Vec<Statement>,
+    tokens: usize,
+    bytes: u64,
+}
+
+/// Reads a scene and splices its `Include`d files in place (relative to the including
+/// file) within [`MAX_TOKENS`], [`MAX_BYTES`] and [`MAX_INCLUDE_DEPTH`]. Every file goes
+/// through [`read_text_capped`] (regular files of at most 16 MiB), and an included file
+/// must look like a pbrt scene before any of it is quoted ([`syntax::check_included`]).
+#[derive(Default)]
+struct Splicer {
+    files: HashMap<PathBuf, Rc<SceneFile>>,
+    tokens: usize,
+    bytes: u64,
+    out: Vec<Statement>,
+    /// The `Include` statements leading to the file being read, outermost first.
+    sites: Vec<Statement>,
+    /// The canonical paths of the files being read, outermost first.
+    open: Vec<PathBuf>,
+}
+
+impl Splicer {
+    fn splice(&mut self, path: &Path) -> Result<()> {
+        let file = match self.files.get(path) {
+            Some(file) => file.clone(),
+            None => self.read(path)?,
+        };
+        if self.open.contains(&file.canonical) {
+            let message = format!("{} includes itself", path.display());
+            return Err(self.chain_error(path, &message));
         }
-        let name = statement.type_name()?;
-        if depth >= 16 {
-            return Err(statement.error("includes nest more than 16 deep (a cycle?)"));
+        self.tokens += file.tokens;
+        self.bytes += file.bytes;
+        if self.tokens > MAX_TOKENS || self.bytes > MAX_BYTES {
+            return Err(self.over_limits(path));
         }
-        let included = path.parent().unwrap_or(Path::new(".")).join(name);
-        out.extend(read_statements(&included, depth + 1)?);
+        self.open.push(file.canonical.clone());
+        for s in &file.statements {
+            if s.directive != "Include" {
+                self.out.push(s.clone());
+                continue;
+            }
+            let included = s
+                .file
+                .parent()
+                .unwrap_or(Path::new("."))
+                .join(s.type_name()?);
+            self.sites.push(s.clone());
+            if self.sites.len() > MAX_INCLUDE_DEPTH {
+                let message = format!("Includes nest more than {MAX_INCLUDE_DEPTH} deep");
+                return Err(self.chain_error(&included, &message));
+            }
+            self.splice(&included)?;
+            self.sites.pop();
+        }
+        self.open.pop();
+        Ok(())
     }
-    Ok(out)
+
+    /// Reads, checks and parses `path` once (it is kept for further Includes).
+    fn read(&mut self, path: &Path) -> Result<Rc<SceneFile>> {
+        let src = read_text_capped(path, TEXT_INPUT_CAP, "pbrt scene file")
+            .and_then(|src| {
+                if !self.sites.is_empty() {
+                    syntax::check_included(&src, path)?;
+                }
+                Ok(src)
+            })
+            .map_err(|e| self.at_site(e))?;
+        let shared: Rc<Path> = Rc::from(path);
+        let parsed = syntax::parse(&src, &shared, MAX_TOKENS - self.tokens)
+            .map_err(|e| self.inside(e))?
+            .ok_or_else(|| self.over_limits(path))?;
+        let file = Rc::new(SceneFile {
+            canonical: std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()),
+            statements: parsed.statements,
+            tokens: parsed.tokens,
+            bytes: src.len() as u64,
+        });
+        self.files.insert(path.to_path_buf(), file.clone());
+        Ok(file)
+    }
+
+    /// `scene.pbrt:1 → a.pbrt:3 → b.pbrt`: the Includes that lead to the file being read,
+    /// each file as the Include before it names it (the first as the scene's own path).
+    fn chain(&self) -> String {
+        let mut links = Vec::new();
+        let mut file = match self.sites.first() {
+            Some(s) => s.file.display().to_string(),
+            None => String::new(),
+        };
+        for s in &self.sites {
+            links.push(format!("{file}:{}", s.line));
+            file = s.type_name().unwrap_or_default().to_string();
+        }
+        links.push(file);
+        links.join(" → ")
+    }
+
+    /// An error about the included file as a whole (it cannot be read or is not a pbrt
+    /// file), located at the `Include` that named it, with the chain when Includes nest.
+    /// The scene file's own errors stand as they are.
+    fn at_site(&self, e: Error) -> Error {
+        match self.sites.as_slice() {
+            [] => e,
+            [site] => site.error(e.to_string()),
+            [.., site] => site.error(format!("{e}; included through {}", self.chain())),
+        }
+    }
+
+    /// An error at the innermost `Include`, naming the whole chain (or about `path`, the
+    /// scene file, when there is none).
+    fn chain_error(&self, path: &Path, message: &str) -> Error {
+        match self.sites.last() {
+            Some(site) => site.error(format!("{message}: {}", self.chain())),
+            None => Error::format(path, message),
+        }
+    }
+
+    /// An error located inside an included file, with the Includes that led there.
+    fn inside(&self, e: Error) -> Error {
+        match e {
+            Error::Scene {
+                file,
+                line,
+                column,
+                message,
+            } if !self.sites.is_empty() => {
+                let chain = self.chain();
+                Error::Scene {
+                    file,
+                    line,
+                    column,
+                    message: format!("{message} (included through {chain})"),
+                }
+            }
+            e => e,
+        }
+    }
+
+    fn over_limits(&self, path: &Path) -> Error {
+        let message = format!(
+            "the scene with the files it includes holds more than {MAX_TOKENS} tokens or {} (the import's limits; a file counts each time it is included: {} tokens and {} bytes so far)",
+            byte_size(MAX_BYTES),
+            self.tokens,
+            self.bytes
+        );
+        self.chain_error(path, &message)
+    }
 }
 
 /// The camera as the `Camera` statement left it (resolved once the film is known).
@@ -460,8 +609,13 @@ impl Importer {
         self.volume_seen = true;
         let mut p = Params::of(s);
         let volume = raw_volume(s, &mut p, self.ctm, &self.output_dir, &mut self.notes)?;
-        let (transfer, sigma, g) =
-            raw_volume_medium(s, &mut p, &self.output_dir, &mut self.unmapped)?;
+        let (transfer, sigma, g) = raw_volume_medium(
+            s,
+            &mut p,
+            &self.output_dir,
+            &mut self.unmapped,
+            &mut self.notes,
+        )?;
         self.params.volume = volume;
         self.params.transfer = transfer;
         self.params.sigma = sigma;
@@ -548,7 +702,7 @@ impl Importer {
         Ok(PbrtImport {
             params: self.params,
             unmapped: self.unmapped,
-            notes: self.notes,
+            notes: self.notes.iter().map(|n| printable(n)).collect(),
             integrator_keys: self.integrator_keys,
             source: source.to_path_buf(),
         })
@@ -709,7 +863,13 @@ fn raw_volume(
         ..VolumeParams::default()
     };
     let path = s.file.parent().unwrap_or(Path::new(".")).join(&raw);
-    match (path.exists(), registered_match(&raw, dims, voxel)) {
+    // A device or FIFO would reach the render as "0 bytes" (or block it): refuse it here.
+    let exists = match open_regular(&path, "RAW volume file") {
+        Ok(_) => true,
+        Err(Error::Io { error, .. }) if error.kind() == std::io::ErrorKind::NotFound => false,
+        Err(e) => return Err(s.error(format!("\"string rawfile\": {e}"))),
+    };
+    match (exists, registered_match(&raw, dims, voxel)) {
         (false, Some(name)) => {
             notes.push(format!(
                 "rawfile `{}` ({}:{}) is not there; its size and type match the registered dataset `{name}`, which is used instead",
@@ -783,6 +943,7 @@ fn raw_volume_medium(
     p: &mut Params,
     output_dir: &Path,
     unmapped: &mut Vec<Unmapped>,
+    notes: &mut Vec<String>,
 ) -> Result<(TransferParams, SigmaParams, f32)> {
     let transfer_on = p.bool("transfer")?.unwrap_or(false);
     if !transfer_on && let Some(table) = p.take("transferfile") {
@@ -798,10 +959,7 @@ fn raw_volume_medium(
         }
         (true, Some(file), threshold) => {
             transfer.kind = TransferKind::Pgm;
-            transfer.file = Some(relative_to(
-                &s.file.parent().unwrap_or(Path::new(".")).join(file),
-                output_dir,
-            ));
+            transfer.file = Some(pgm_transfer(s, &file, output_dir, notes)?);
             if let Some(t) = threshold {
                 unmapped.push(Unmapped::at(s, Some(&t), "ignored: the transfer function applies (the threshold is the 16-bit rule without one, §7.2.1)"));
             }
@@ -828,6 +986,47 @@ fn raw_volume_medium(
     SigmaMapping::create(&sigma).map_err(|e| s.error(e.within("sigma").to_string()))?;
     let g = p.float("g")?.unwrap_or(0.0) as f32;
     Ok((transfer, sigma, g))
+}
+
+/// The `transferfile` (relative to the statement's file), read now so that the render never
+/// meets it first: a file that is not a 256×256 PGM is an error naming it (never quoting
+/// it); a missing one is a note with the resolved path and an alternative, as a missing
+/// `rawfile` is. Returns the path relative to `output_dir`.
+fn pgm_transfer(
+    s: &Statement,
+    file: &str,
+    output_dir: &Path,
+    notes: &mut Vec<String>,
+) -> Result<PathBuf> {
+    let path = s.file.parent().unwrap_or(Path::new(".")).join(file);
+    match TransferFunction::from_pgm(&path) {
+        Ok(_) => {}
+        Err(Error::Io { error, .. }) if error.kind() == std::io::ErrorKind::NotFound => {
+            notes.push(format!(
+                "transferfile `{}` ({}:{}) does not exist: the render fails until it is there; or write [transfer] kind = \"points\" in its place (points = [[0.0, 0.0], [1.0, 1.0]] uses the densities as they are)",
+                path.display(),
+                s.file.display(),
+                s.line
+            ));
+        }
+        Err(e) => return Err(s.error(format!("\"string transferfile\": {e}"))),
+    }
+    Ok(relative_to(&path, output_dir))
+}
+
+/// `text` with its control characters escaped (`\n`, `\u{1b}`): a string's `\n` escape
+/// would end a TOML comment and make the rest of its line TOML, and an escape sequence
+/// would reach the terminal.
+fn printable(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 /// `path` relative to `base` when both are on the same root, else absolute.
@@ -997,7 +1196,7 @@ impl PbrtImport {
         }
         let mut out = format!(
             "# Imported by `sweep import` from {} (pbrt-v1, thesis §7).\n",
-            self.source.display()
+            printable(&self.source.display().to_string())
         );
         for note in &self.notes {
             out.push_str(&format!("# note: {note}\n"));

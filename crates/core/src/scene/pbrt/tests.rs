@@ -332,3 +332,365 @@ fn relative_paths_walk_up_from_the_output_folder() {
         Path::new("c.raw")
     );
 }
+
+/// Runs the import on a thread of its own: a regression that loops or reads forever fails
+/// after 30 s instead of stalling the test run.
+fn import_within_30s(path: &Path, output_dir: &Path) -> Result<PbrtImport> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let (path, output_dir) = (path.to_path_buf(), output_dir.to_path_buf());
+    std::thread::spawn(move || {
+        let _ = tx.send(import_pbrt(&path, &output_dir));
+    });
+    rx.recv_timeout(std::time::Duration::from_secs(30))
+        .unwrap_or_else(|_| panic!("the import did not return within 30 s"))
+}
+
+/// `t.pbrt`: `first` (Include lines) before the thesis-style scene, in the thesis folder.
+fn including(first: &str) -> (tempfile::TempDir, PathBuf) {
+    let (dir, _) = thesis_dir();
+    let path = write(dir.path(), "t.pbrt", &format!("{first}\n{THESIS_STYLE}"));
+    (dir, path)
+}
+
+#[test]
+fn include_fan_out_is_bounded_and_names_the_chain() {
+    // f0 … f14, each including the next four times: 4^14 splices if nothing bounds them.
+    let dir = tempfile::tempdir().unwrap();
+    for i in 0..14 {
+        write(
+            dir.path(),
+            &format!("f{i}.pbrt"),
+            &format!("Include \"f{}.pbrt\"\n", i + 1).repeat(4),
+        );
+    }
+    write(dir.path(), "f14.pbrt", "WorldBegin\n");
+    let e = import_within_30s(&dir.path().join("f0.pbrt"), dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("1000000 tokens") && e.contains("64 MiB"),
+        "the limits are named: {e}"
+    );
+    assert!(
+        e.contains("f0.pbrt:1 → ") && e.contains(" → f1.pbrt:") && e.contains("Include \"f"),
+        "the chain is named: {e}"
+    );
+}
+
+#[test]
+fn include_cycles_name_the_chain() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "a.pbrt", "WorldBegin\nInclude \"b.pbrt\"\n");
+    write(dir.path(), "b.pbrt", "\n\nInclude \"sub/../a.pbrt\"\n");
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    let e = import_within_30s(&dir.path().join("a.pbrt"), dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("b.pbrt:3:1: Include \"sub/../a.pbrt\"")
+            && e.contains("a.pbrt:2 → ")
+            && e.contains("b.pbrt:3 → ")
+            && e.contains("includes itself"),
+        "{e}"
+    );
+}
+
+#[test]
+fn deep_includes_name_the_chain() {
+    let dir = tempfile::tempdir().unwrap();
+    for i in 0..20 {
+        write(
+            dir.path(),
+            &format!("d{i}.pbrt"),
+            &format!("Include \"d{}.pbrt\"\n", i + 1),
+        );
+    }
+    let e = import_within_30s(&dir.path().join("d0.pbrt"), dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("d16.pbrt:1:1: Include \"d17.pbrt\": Includes nest more than 16 deep")
+            && e.contains("d0.pbrt:1 → d1.pbrt:1 → d2.pbrt:1")
+            && e.ends_with("d16.pbrt:1 → d17.pbrt"),
+        "{e}"
+    );
+}
+
+#[test]
+fn includes_of_devices_fifos_folders_and_huge_files_are_refused_at_their_line() {
+    let (dir, _) = thesis_dir();
+    let huge = dir.path().join("huge.pbrt");
+    // Sparse: 1 GiB long without a block written; reading it whole was the bug.
+    std::fs::File::create(&huge)
+        .unwrap()
+        .set_len(1 << 30)
+        .unwrap();
+    let fifo = dir.path().join("pipe.pbrt");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    assert!(made.is_ok_and(|s| s.success()), "mkfifo");
+    std::fs::create_dir(dir.path().join("folder.pbrt")).unwrap();
+    write(
+        dir.path(),
+        "inner.pbrt",
+        "WorldBegin\nInclude \"/dev/zero\"\n",
+    );
+    for (include, needles) in [
+        (
+            "/dev/zero",
+            &["t.pbrt:1:1", "/dev/zero", "character device"][..],
+        ),
+        ("huge.pbrt", &["t.pbrt:1:1", "1073741824 bytes", "16 MiB"]),
+        ("pipe.pbrt", &["t.pbrt:1:1", "FIFO"]),
+        ("folder.pbrt", &["t.pbrt:1:1", "a folder"]),
+        ("gone.pbrt", &["t.pbrt:1:1", "gone.pbrt"]),
+        (
+            "inner.pbrt",
+            &[
+                "inner.pbrt:2:1",
+                "character device",
+                "t.pbrt:1 → inner.pbrt:2 → /dev/zero",
+            ],
+        ),
+    ] {
+        let path = write(
+            dir.path(),
+            "t.pbrt",
+            &format!("Include \"{include}\"\n{THESIS_STYLE}"),
+        );
+        let e = import_within_30s(&path, dir.path())
+            .unwrap_err()
+            .to_string();
+        for needle in needles {
+            assert!(
+                e.contains(needle),
+                "Include {include}: `{needle}` not in: {e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn foreign_files_are_named_never_quoted() {
+    for (name, content) in [
+        ("passwd", &b"root:x:0:0:SECRET:/root:/bin/bash\n"[..]),
+        // Reads as pbrt tokens (a word and a string): it was listed as "not mapped", with
+        // its content, on stderr and in the written TOML.
+        ("token.env", b"API_TOKEN \"SECRET\"\n"),
+        ("blob", b"\x7fELF\x02SECRET\xff\xfe"),
+    ] {
+        let (dir, path) = including(&format!("Include \"{name}\""));
+        std::fs::write(dir.path().join(name), content).unwrap();
+        let shown = match import_within_30s(&path, dir.path()) {
+            Ok(import) => format!("{}{:?}", import.to_toml(), import.notes),
+            Err(e) => e.to_string(),
+        };
+        assert!(!shown.contains("SECRET"), "{name}: content quoted: {shown}");
+        assert!(
+            shown.contains(&format!("t.pbrt:1:1: Include \"{name}\"")) && shown.contains(name),
+            "{name}: the Include and the file are named: {shown}"
+        );
+        assert!(
+            shown.contains("not a pbrt scene file") || shown.contains("not UTF-8"),
+            "{name}: what was expected: {shown}"
+        );
+    }
+}
+
+#[test]
+fn a_transferfile_that_is_not_a_pgm_is_named_not_quoted() {
+    let (dir, _) = thesis_dir();
+    std::fs::write(
+        dir.path().join("voldata/verylowcut.pgm"),
+        "root:x:0:0:SECRET:/root:/bin/bash\n",
+    )
+    .unwrap();
+    let path = write(dir.path(), "t.pbrt", THESIS_STYLE);
+    let e = import_within_30s(&path, dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(!e.contains("SECRET"), "{e}");
+    assert!(
+        e.contains("t.pbrt:24:1")
+            && e.contains("transferfile")
+            && e.contains("verylowcut.pgm")
+            && e.contains("\"P2\" or \"P5\""),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_missing_transferfile_is_flagged_at_import() {
+    let import = import_text(THESIS_STYLE).unwrap();
+    let note = import
+        .notes
+        .iter()
+        .find(|n| n.contains("transferfile"))
+        .unwrap_or_else(|| panic!("no note: {:?}", import.notes));
+    assert!(
+        note.contains("voldata/verylowcut.pgm")
+            && note.contains("t.pbrt:24")
+            && note.contains("kind = \"points\""),
+        "the resolved path, the statement and an alternative: {note}"
+    );
+    assert!(import.to_toml().contains("# note: transferfile"));
+}
+
+/// A mistake written into the thesis-style scene (`from` → `to`), where its error must be
+/// located and what the message must say.
+type Mistake<'a> = (&'a str, &'a str, &'a str, &'a [&'a str]);
+
+fn assert_located(mistakes: &[Mistake]) {
+    for (from, to, at, needles) in mistakes {
+        assert!(THESIS_STYLE.contains(from), "{from}");
+        let e = import_text(&THESIS_STYLE.replacen(from, to, 1))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(&format!("{at}: ")), "{to}: not at {at}: {e}");
+        for needle in needles.iter() {
+            assert!(e.contains(needle), "{to}: `{needle}` not in: {e}");
+        }
+    }
+}
+
+#[test]
+fn non_finite_numbers_are_named_where_written() {
+    assert_located(&[
+        (
+            "\"color sigma_a\" [1 1 1]",
+            "\"color sigma_a\" [NaN 1 1]",
+            "t.pbrt:30:22",
+            &["\"color sigma_a\"", "`NaN` is not a finite number"],
+        ),
+        (
+            "\"color sigma_a\" [1 1 1]",
+            "\"color sigma_a\" [1 inf 1]",
+            "t.pbrt:30:24",
+            &["\"color sigma_a\"", "`inf` is not a finite number"],
+        ),
+        (
+            "\"color sigma_s\" [10 10 10]",
+            "\"color sigma_s\" [10 1e999 10]",
+            "t.pbrt:31:25",
+            &["\"color sigma_s\"", "`1e999` is not a finite number"],
+        ),
+        (
+            "  Translate 0 0 1",
+            "  Rotate nan 0 0 1",
+            "t.pbrt:18:10",
+            &["Rotate", "argument 1", "`nan` is not a finite number"],
+        ),
+        (
+            "  Translate 0 0 1",
+            "  Translate 0 -inf 1",
+            "t.pbrt:18:15",
+            &["Translate", "argument 2", "`-inf` is not a finite number"],
+        ),
+        (
+            "\"float coneangle\" 25",
+            "\"float coneangle\" nan",
+            "t.pbrt:20:25",
+            &["\"float coneangle\"", "`nan` is not a finite number"],
+        ),
+    ]);
+}
+
+#[test]
+fn quote_parameter_and_character_mistakes_are_named_where_written() {
+    assert_located(&[
+        (
+            "\"float conedeltaangle\" 5",
+            "\"float conedeltaangle\"",
+            "t.pbrt:20:28",
+            &["\"float conedeltaangle\" has no value"],
+        ),
+        (
+            "\"float fov\" [30]",
+            "\"float fov\" [30]\n  \"float fov\" [40]",
+            "t.pbrt:4:3",
+            &["\"float fov\" is given twice", "line 3, column 22"],
+        ),
+        (
+            "\"voldata/foot.raw\"",
+            "\"voldata/foot.raw\"\"",
+            "t.pbrt:27:40",
+            &["stray `\"`"],
+        ),
+        (
+            "\"voldata/foot.raw\"",
+            "\"voldata/foot.raw\"\"\"",
+            "t.pbrt:27:40",
+            &["stray `\"`", "\"string rawfile\""],
+        ),
+        (
+            "\"voldata/foot.raw\"\n    \"bool",
+            "\"voldata/foot.raw\"\" \"bool",
+            "t.pbrt:27:40",
+            &["stray `\"`", "not closed"],
+        ),
+        (
+            "WorldBegin",
+            "\u{200b}WorldBegin",
+            "t.pbrt:16:1",
+            &["U+200B"],
+        ),
+        (
+            "WorldBegin",
+            "WorldBegin \u{feff}",
+            "t.pbrt:16:12",
+            &["U+FEFF", "byte-order mark"],
+        ),
+    ]);
+}
+
+#[test]
+fn a_leading_byte_order_mark_is_skipped() {
+    let import = import_text(&format!("\u{feff}{THESIS_STYLE}")).unwrap();
+    assert_eq!(import.params.camera.fov, 30.0);
+}
+
+#[test]
+fn unmapped_text_cannot_break_out_of_its_toml_comment() {
+    // A string's `\n` escape is a newline: written raw, it would end the comment and make
+    // the rest of the line TOML.
+    let scene = THESIS_STYLE.replace(
+        "Shape \"sphere\"",
+        "Shape \"x\\n[film]\\nexposure = 3\\n#\"",
+    );
+    let import = import_text(&scene).unwrap();
+    let text = import.to_toml();
+    let back = SceneParams::from_toml(&text, Path::new("x.toml")).unwrap();
+    assert_eq!(back, import.params, "{text}");
+    assert!(text.contains("Shape \"x\\n[film]"), "{text}");
+    let shown = import
+        .unmapped
+        .iter()
+        .map(|u| u.to_string())
+        .collect::<String>();
+    assert!(!shown.contains('\n'), "{shown}");
+}
+
+#[test]
+fn a_rawfile_that_is_not_a_regular_file_is_refused_at_import() {
+    let (dir, _) = thesis_dir();
+    let fifo = dir.path().join("voldata/pipe.raw");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    assert!(made.is_ok_and(|s| s.success()), "mkfifo");
+    for (raw, kind) in [
+        ("/dev/zero", "character device"),
+        ("voldata/pipe.raw", "FIFO"),
+        ("voldata", "a folder"),
+    ] {
+        let scene = THESIS_STYLE.replace("voldata/foot.raw", raw);
+        let path = write(dir.path(), "t.pbrt", &scene);
+        let e = import_within_30s(&path, dir.path())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("t.pbrt:24:1")
+                && e.contains("rawfile")
+                && e.contains(raw)
+                && e.contains(kind),
+            "{raw}: {e}"
+        );
+    }
+}
