@@ -53,8 +53,8 @@ impl<'a> AxisNames<'a> {
     }
 }
 
-/// Every key that names a scene setting ([set], [axes], [[zip]], the quality presets'
-/// `set` and `axes`, [reference] `set`) is a dotted path of names; the error points at it.
+/// Every key that names a scene setting (`[set]`, `[axes]`, `[[zip]]`, the quality presets'
+/// `set` and `axes`, `[reference]`'s `set`) is a dotted path of names; the error points at it.
 pub(crate) fn scene_keys(source: &Source, file: &ExperimentFile) -> Result<()> {
     let mut keys: Vec<(String, String)> = Vec::new();
     let mut add = |at: &str, flat: Vec<(String, Value)>| {
