@@ -85,6 +85,11 @@ pub(crate) enum Command {
     /// Show which cells of an output folder are done, running, failed or pending.
     #[command(after_help = "Example:\n  sweep status reports/artifacts")]
     Status(StatusArgs),
+    /// Check every number a document cites from a study against the committed data.
+    #[command(
+        after_help = "Example:\n  sweep claims reports/REPRODUCTION.md README.md\n\nA cited number carries its query in a comment right after it:\n  0.157<!-- = mean(single_vs_multiple-paper: ms_share | scene=skeleton, sigma.t=6) -->\nSources are study folders (their cells.csv), CSV or JSON files, relative to the document.\nAggregates: value, mean, min, max, sum, count, median; + - * / and parentheses combine them."
+    )]
+    Claims(ClaimsArgs),
     /// Benchmark the thesis's headline frame (foot, 512², 40 000 photons, nused 150).
     #[command(
         after_help = "Example:\n  sweep bench --threads 2\n  sweep bench --quick          (a smaller frame on a phantom)"
@@ -397,6 +402,20 @@ pub(crate) struct ReportArgs {
 pub(crate) struct StatusArgs {
     /// Output folder of a run.
     pub(crate) dir: PathBuf,
+}
+
+/// `sweep claims`.
+#[derive(Debug, Args)]
+pub(crate) struct ClaimsArgs {
+    /// Markdown documents whose cited numbers are checked.
+    #[arg(required = true)]
+    pub(crate) documents: Vec<PathBuf>,
+    /// Rewrite every number that differs from its data, in the same form (same decimals).
+    #[arg(long)]
+    pub(crate) update: bool,
+    /// Print every claim, not only those that differ or cannot be checked.
+    #[arg(long, short)]
+    pub(crate) verbose: bool,
 }
 
 /// `sweep bench`.

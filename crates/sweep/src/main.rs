@@ -5,6 +5,7 @@
 
 mod analyse;
 mod backend;
+mod claims;
 mod cli;
 mod commands;
 mod plan;

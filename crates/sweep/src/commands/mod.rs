@@ -1,6 +1,7 @@
 //! One module per verb.
 
 mod bench;
+mod claims;
 mod datasets;
 mod export;
 mod import;
@@ -28,6 +29,7 @@ pub(crate) fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Run(a) => run::run(&a),
         Command::Report(a) => report::run(&a),
         Command::Status(a) => status::run(&a),
+        Command::Claims(a) => claims::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::Export(a) => export::run(&a),
         Command::Import(a) => import::run(&a),

@@ -1,0 +1,230 @@
+//! Numbers as a document prints them: `0.157`, `−0.09`, `10 308`, `7.47·10⁻⁴`, `1.2e-5`.
+//! The printed precision is what a claim must hold to: half a unit in the last digit.
+
+/// A number found in a document's text.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Cited {
+    /// Byte range of the number in its line.
+    pub(crate) span: (usize, usize),
+    /// Its value.
+    pub(crate) value: f64,
+    /// Digits after the decimal point of the mantissa.
+    pub(crate) decimals: usize,
+    /// The power of ten of a scientific form (`·10⁻⁴`, `e-4`), 0 otherwise.
+    pub(crate) exponent: i32,
+    /// The separator of thousands groups, if the number uses one (`10 308`).
+    pub(crate) separator: Option<char>,
+    /// How a minus is written (`−` or `-`).
+    pub(crate) minus: char,
+    /// Whether the exponent is written `·10ⁿ` (else `eN`).
+    pub(crate) superscript: bool,
+}
+
+/// Thousands separators: the narrow and thin spaces (and a no-break space). A plain space
+/// separates two numbers (`nused 25 150`), so a document writes `10\u{202f}308`.
+const THOUSANDS: [char; 3] = ['\u{202f}', '\u{2009}', '\u{a0}'];
+const SUPERSCRIPTS: [char; 10] = ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹'];
+
+impl Cited {
+    /// Whether `value` prints as this number: within half a unit of its last digit.
+    pub(crate) fn agrees(&self, value: f64) -> bool {
+        (value - self.value).abs() <= self.half_unit() * (1.0 + 1e-9) + 1e-300
+    }
+
+    pub(crate) fn half_unit(&self) -> f64 {
+        0.5 * 10f64.powi(self.exponent - self.decimals as i32)
+    }
+
+    /// `value` written as this number is: the same decimals, exponent, separator and minus.
+    pub(crate) fn format(&self, value: f64) -> String {
+        let mantissa = value / 10f64.powi(self.exponent);
+        let text = format!("{:.*}", self.decimals, mantissa.abs());
+        let (int, frac) = text.split_once('.').unwrap_or((&text, ""));
+        let mut grouped = String::new();
+        for (i, c) in int.chars().enumerate() {
+            if i > 0 && (int.len() - i) % 3 == 0 && self.separator.is_some() && int.len() > 4 {
+                grouped.push(self.separator.unwrap_or(' '));
+            }
+            grouped.push(c);
+        }
+        let mut out = String::new();
+        if mantissa < 0.0 && text.chars().any(|c| c.is_ascii_digit() && c != '0') {
+            out.push(self.minus);
+        }
+        out += &grouped;
+        if !frac.is_empty() {
+            out.push('.');
+            out += frac;
+        }
+        if self.exponent != 0 {
+            if self.superscript {
+                out += "·10";
+                if self.exponent < 0 {
+                    out.push('⁻');
+                }
+                for d in self.exponent.unsigned_abs().to_string().chars() {
+                    out.push(SUPERSCRIPTS[d.to_digit(10).unwrap_or(0) as usize]);
+                }
+            } else {
+                out += &format!("e{}", self.exponent);
+            }
+        }
+        out
+    }
+}
+
+/// The last number in `text`, if any.
+pub(crate) fn last_number(text: &str) -> Option<Cited> {
+    let chars: Vec<(usize, char)> = text.char_indices().collect();
+    let mut found = None;
+    let mut i = 0;
+    while i < chars.len() {
+        let c = chars[i].1;
+        let starts = c.is_ascii_digit()
+            && (i == 0 || {
+                let p = chars[i - 1].1;
+                !(p.is_alphanumeric() || p == '.' || p == '_')
+            });
+        if starts && let Some((cited, end)) = number_at(text, &chars, i) {
+            found = Some(cited);
+            i = end;
+            continue;
+        }
+        i += 1;
+    }
+    found
+}
+
+/// Reads the number whose first digit is `chars[i]`; returns it and the index past it.
+fn number_at(text: &str, chars: &[(usize, char)], i: usize) -> Option<(Cited, usize)> {
+    let digit = |k: usize| chars.get(k).is_some_and(|(_, c)| c.is_ascii_digit());
+    // <<Sign>>: a minus right before the first digit.
+    let (mut start, mut negative, mut minus) = (chars[i].0, false, '−');
+    if i > 0 && matches!(chars[i - 1].1, '−' | '-' | '+') {
+        let before = if i > 1 { chars[i - 2].1 } else { ' ' };
+        if !before.is_alphanumeric() {
+            start = chars[i - 1].0;
+            negative = chars[i - 1].1 != '+';
+            minus = if chars[i - 1].1 == '-' { '-' } else { '−' };
+        }
+    }
+    // <<Integer part with optional thousands groups>>
+    let mut k = i;
+    let mut int = String::new();
+    while digit(k) {
+        int.push(chars[k].1);
+        k += 1;
+    }
+    let mut separator = None;
+    while int.len() <= 3 || separator.is_some() {
+        let Some(&(_, sep)) = chars.get(k) else { break };
+        let group = THOUSANDS.contains(&sep)
+            && (1..=3).all(|d| digit(k + d))
+            && !digit(k + 4)
+            && separator.is_none_or(|s| s == sep);
+        if !group {
+            break;
+        }
+        separator = Some(sep);
+        int.extend((1..=3).map(|d| chars[k + d].1));
+        k += 4;
+    }
+    // <<Fraction>>
+    let mut frac = String::new();
+    if chars.get(k).is_some_and(|(_, c)| *c == '.') && digit(k + 1) {
+        k += 1;
+        while digit(k) {
+            frac.push(chars[k].1);
+            k += 1;
+        }
+    }
+    // <<Exponent>>: `e-5`, or `·10⁻⁴` / `×10⁻⁴`.
+    let (exponent, superscript, k) = exponent_at(chars, k);
+    let mantissa: f64 = format!("{int}.{frac}0").parse().ok()?;
+    let value = mantissa * 10f64.powi(exponent) * if negative { -1.0 } else { 1.0 };
+    let end_byte = chars.get(k).map_or(text.len(), |(b, _)| *b);
+    Some((
+        Cited {
+            span: (start, end_byte),
+            value,
+            decimals: frac.len(),
+            exponent,
+            separator,
+            minus,
+            superscript,
+        },
+        k,
+    ))
+}
+
+fn exponent_at(chars: &[(usize, char)], k: usize) -> (i32, bool, usize) {
+    let at = |k: usize| chars.get(k).map(|(_, c)| *c);
+    if matches!(at(k), Some('e' | 'E')) {
+        let mut j = k + 1;
+        let negative = matches!(at(j), Some('-' | '−'));
+        if matches!(at(j), Some('-' | '−' | '+')) {
+            j += 1;
+        }
+        let mut digits = String::new();
+        while let Some(c) = at(j).filter(char::is_ascii_digit) {
+            digits.push(c);
+            j += 1;
+        }
+        if let Ok(e) = digits.parse::<i32>() {
+            return (if negative { -e } else { e }, false, j);
+        }
+    }
+    if matches!(at(k), Some('·' | '×')) && at(k + 1) == Some('1') && at(k + 2) == Some('0') {
+        let mut j = k + 3;
+        let negative = at(j) == Some('⁻');
+        if negative {
+            j += 1;
+        }
+        let mut e = 0i32;
+        let mut any = false;
+        while let Some(d) = at(j).and_then(|c| SUPERSCRIPTS.iter().position(|s| *s == c)) {
+            e = e * 10 + d as i32;
+            any = true;
+            j += 1;
+        }
+        if any {
+            return (if negative { -e } else { e }, true, j);
+        }
+    }
+    (0, false, k)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn last(text: &str) -> Cited {
+        last_number(text).unwrap_or_else(|| panic!("no number in {text:?}"))
+    }
+
+    #[test]
+    fn reads_the_forms_the_documents_use() {
+        let c = last("skeleton σt 6: 0.157 ");
+        assert_eq!((c.value, c.decimals), (0.157, 3));
+        assert!(c.agrees(0.1574) && c.agrees(0.1565) && !c.agrees(0.1576));
+        let c = last("bias −0.09 %");
+        assert_eq!(c.value, -0.09);
+        assert_eq!(c.format(-0.094), "−0.09");
+        let c = last("it took 10\u{202f}308 s");
+        assert_eq!((c.value, c.separator), (10308.0, Some('\u{202f}')));
+        assert_eq!(c.format(9876.4), "9876");
+        assert_eq!(c.format(12345.0), "12\u{202f}345");
+        let c = last("RMSE²×CPU-s 7.47·10⁻⁴ (");
+        assert!((c.value - 7.47e-4).abs() < 1e-15 && c.superscript);
+        assert_eq!(c.format(7.4449e-4), "7.44·10⁻⁴");
+        let c = last("(1.2e-5)");
+        assert_eq!((c.value, c.exponent), (1.2e-5, -5));
+        assert_eq!(last("1.86× as efficient").value, 1.86);
+        // Not numbers: parts of names.
+        assert_eq!(last("nused 150 in p0_rmse").value, 150.0);
+        assert_eq!(last("x 25 150").value, 150.0, "two numbers, not 25 150");
+        assert!(last_number("σt(d_min)").is_none());
+        let c = last("a-1");
+        assert_eq!(c.value, 1.0, "a hyphen after a word is not a minus");
+    }
+}
