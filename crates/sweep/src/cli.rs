@@ -90,6 +90,9 @@ pub(crate) enum Command {
         after_help = "Example:\n  sweep claims reports/REPRODUCTION.md README.md\n\nA cited number carries its query in a comment right after it:\n  0.157<!-- = mean(single_vs_multiple-paper: ms_share | scene=skeleton, sigma.t=6) -->\nSources are study folders (their cells.csv), CSV or JSON files, relative to the document.\nAggregates: value, mean, min, max, sum, count, median; + - * / and parentheses combine them."
     )]
     Claims(ClaimsArgs),
+    /// Write DIR/index.html: one card per study folder in DIR, the paper and the benchmarks.
+    #[command(after_help = "Example:\n  sweep index reports        (then open reports/index.html)")]
+    Index(IndexArgs),
     /// Benchmark the thesis's headline frame (foot, 512², 40 000 photons, nused 150).
     #[command(
         after_help = "Example:\n  sweep bench --threads 2\n  sweep bench --quick          (a smaller frame on a phantom)"
@@ -401,6 +404,13 @@ pub(crate) struct ReportArgs {
 #[derive(Debug, Args)]
 pub(crate) struct StatusArgs {
     /// Output folder of a run.
+    pub(crate) dir: PathBuf,
+}
+
+/// `sweep index`.
+#[derive(Debug, Args)]
+pub(crate) struct IndexArgs {
+    /// The folder holding the study folders (`reports`).
     pub(crate) dir: PathBuf,
 }
 

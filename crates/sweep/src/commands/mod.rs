@@ -5,6 +5,7 @@ mod claims;
 mod datasets;
 mod export;
 mod import;
+mod index;
 mod peer;
 mod pilot;
 mod plan;
@@ -30,6 +31,7 @@ pub(crate) fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Report(a) => report::run(&a),
         Command::Status(a) => status::run(&a),
         Command::Claims(a) => claims::run(&a),
+        Command::Index(a) => index::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::Export(a) => export::run(&a),
         Command::Import(a) => import::run(&a),

@@ -39,6 +39,21 @@ pub(crate) struct ExperimentFile {
     pub(crate) sheets: Vec<SheetSpec>,
     /// `sweep tune`: objective, budget, fidelity and search space.
     pub(crate) tune: Option<super::TuneFile>,
+    /// How the report is written.
+    #[serde(default)]
+    pub(crate) report: ReportSpec,
+}
+
+/// `[report]`: how the report is written.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct ReportSpec {
+    /// The explorer's pixel data at most this many pixels on the long side: larger images
+    /// are averaged over square bins (the readout then says so). The committed studies set
+    /// it, so that every study opens in the explorer from a clone at a size git can carry;
+    /// unset, the data are at the full resolution.
+    #[serde(default)]
+    pub(crate) explorer_max_side: Option<usize>,
 }
 
 fn default_max_cells() -> usize {

@@ -64,7 +64,8 @@ use file::{ExperimentFile, QualityPreset};
 
 pub(crate) use cells::CellSpec;
 pub(crate) use file::{
-    CompareKind, CompareSpec, PlotSpec, ReferenceMethod, ReferenceSpec, SheetLayer, SheetSpec,
+    CompareKind, CompareSpec, PlotSpec, ReferenceMethod, ReferenceSpec, ReportSpec, SheetLayer,
+    SheetSpec,
 };
 pub(crate) use keys::{flatten_set, flatten_space, short_key, toml_to_json, value_text};
 pub(crate) use kind::load_scene;
@@ -152,6 +153,8 @@ pub(crate) struct Experiment {
     /// The `[tune]` section: its `[axes]` grid are the contexts every configuration is
     /// evaluated on.
     pub(crate) tune: Option<TuneSpec>,
+    /// How the report is written (`[report]`).
+    pub(crate) report: ReportSpec,
     base: BaseScene,
     set: Vec<(String, Value)>,
     dimensions: Vec<Dimension>,
@@ -228,6 +231,7 @@ impl Experiment {
             plots: file.plots,
             sheets: file.sheets,
             tune,
+            report: file.report,
             base,
             set,
             dimensions,

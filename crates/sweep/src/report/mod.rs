@@ -9,6 +9,7 @@ mod escape;
 mod explorer;
 mod figures;
 mod html;
+mod index;
 mod markdown;
 mod plots;
 mod sheets;
@@ -20,6 +21,7 @@ use anyhow::{Context, Result};
 
 pub(crate) use chart::{Panel, Plot, Point, Series, write_plot};
 use collect::collect;
+pub(crate) use index::write_index;
 use table::{CsvExporter, Exporter, JsonExporter, Table, cells_table};
 
 use crate::plan::{Experiment, Quality};
@@ -131,7 +133,8 @@ pub(crate) fn build_report(out: &OutputDir) -> Result<PathBuf> {
     }
     .markdown();
     volphot::write_atomic(&out.root().join("report.md"), markdown.as_bytes())?;
-    let explorer = explorer::Explorer::build(out, &plan, &cells)?;
+    let explorer =
+        explorer::Explorer::build(out, &plan, &cells, experiment.report.explorer_max_side)?;
     let html = html::html(out.root(), &markdown, &explorer, &figures)?;
     let path = out.root().join("report.html");
     volphot::write_atomic(&path, html.as_bytes())?;

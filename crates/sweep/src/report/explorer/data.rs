@@ -23,8 +23,9 @@ use crate::analyse::{displayed, flip_map};
 use crate::report::collect::Collected;
 use crate::store::{CellRecord, FileCheck, OutputDir, first_mismatch, read_reference_record};
 
-/// Version of the data files' content; files of another version are written again.
-const DATA_FORMAT: u32 = 1;
+/// Version of the data files' content; files of another version are written again
+/// (2: pixel data may be binned).
+const DATA_FORMAT: u32 = 2;
 
 /// The explorer's folder inside the output folder.
 pub(super) const FOLDER: &str = "explorer";
@@ -65,6 +66,7 @@ struct ReferenceSource {
     dir: PathBuf,
     sha256: String,
     size: [usize; 2],
+    bin: usize,
 }
 
 /// What a finished cell's data file is made from.
@@ -77,6 +79,8 @@ struct CellSource<'a> {
     reference: Option<&'a ReferenceSource>,
     exposure: f32,
     shows: Shows,
+    /// Side of the square bins its pixel data are averaged over (1: every pixel).
+    bin: usize,
 }
 
 /// A finished cell's data as the manifest lists it.
@@ -119,7 +123,19 @@ fn checksum(dir: &Path, files: &[FileCheck], name: &str) -> Result<String> {
     }
 }
 
-fn reference_source(out: &OutputDir, key: &str) -> Result<Option<ReferenceSource>> {
+/// The bin side that brings an image of `size` within `max_side` pixels on its long side.
+fn bin_for(size: [usize; 2], max_side: Option<usize>) -> usize {
+    match max_side {
+        Some(m) if m > 0 => size[0].max(size[1]).div_ceil(m).max(1),
+        _ => 1,
+    }
+}
+
+fn reference_source(
+    out: &OutputDir,
+    key: &str,
+    max_side: Option<usize>,
+) -> Result<Option<ReferenceSource>> {
     let dir = out.reference(key);
     let Ok(record) = read_reference_record(&dir) else {
         return Ok(None);
@@ -133,6 +149,7 @@ fn reference_source(out: &OutputDir, key: &str) -> Result<Option<ReferenceSource
         sha256: checksum(&dir, &record.files, "reference.exr")?,
         dir,
         size: [w as usize, h as usize],
+        bin: bin_for([w as usize, h as usize], max_side),
     }))
 }
 
@@ -149,11 +166,12 @@ impl CellSource<'_> {
     /// The first line of the data file: everything the data depend on.
     fn stamp(&self) -> String {
         let source = format!(
-            "cell data format {DATA_FORMAT}\nfilm {}\nreference {}\nexposure {}\nshows {:?}\n",
+            "cell data format {DATA_FORMAT}\nfilm {}\nreference {}\nexposure {}\nshows {:?}\nbin {}\n",
             self.film_sha256,
             self.reference.map_or("none", |r| r.sha256.as_str()),
             self.exposure.to_bits(),
-            self.shows
+            self.shows,
+            self.bin
         );
         format!(
             "// volphot explorer data {}",
@@ -164,8 +182,8 @@ impl CellSource<'_> {
 
 fn reference_stamp(reference: &ReferenceSource) -> String {
     let source = format!(
-        "reference data format {DATA_FORMAT}\nreference {}\n",
-        reference.sha256
+        "reference data format {DATA_FORMAT}\nreference {}\nbin {}\n",
+        reference.sha256, reference.bin
     );
     format!(
         "// volphot explorer data {}",
@@ -194,6 +212,8 @@ fn is_current(path: &Path, stamp: &str) -> bool {
 struct Payload {
     width: usize,
     height: usize,
+    /// Side of the square bins the values are means over (1: the film's own pixels).
+    bin: usize,
     layers: BTreeMap<&'static str, Option<String>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     flip: Option<String>,
@@ -210,18 +230,60 @@ fn write_script(out: &OutputDir, path: &str, stamp: &str, payload: &Payload) -> 
     Ok(())
 }
 
-fn packed_layers(film: &Film) -> Result<BTreeMap<&'static str, Option<String>>> {
-    Layer::ALL
-        .iter()
-        .map(|&l| Ok((l.name(), pack_layer(film.layer(l))?)))
-        .collect()
+/// The mean of every `bin` × `bin` square of a `w` × `h` image (the last row and column of
+/// squares cover what is left); returns the binned image and its size.
+fn binned<T: Copy + Default + std::ops::Add<Output = T> + std::ops::Mul<f32, Output = T>>(
+    values: &[T],
+    [w, h]: [usize; 2],
+    bin: usize,
+) -> (Vec<T>, [usize; 2]) {
+    if bin <= 1 {
+        return (values.to_vec(), [w, h]);
+    }
+    let (bw, bh) = (w.div_ceil(bin), h.div_ceil(bin));
+    let mut out = Vec::with_capacity(bw * bh);
+    for by in 0..bh {
+        for bx in 0..bw {
+            let (x0, y0) = (bx * bin, by * bin);
+            let (x1, y1) = ((x0 + bin).min(w), (y0 + bin).min(h));
+            let mut sum = T::default();
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    sum = sum + values[y * w + x];
+                }
+            }
+            out.push(sum * (1.0 / ((x1 - x0) * (y1 - y0)) as f32));
+        }
+    }
+    (out, [bw, bh])
+}
+
+/// Each layer's packed data by name (`None`: all zero).
+type PackedLayers = BTreeMap<&'static str, Option<String>>;
+
+/// Every layer of a film, binned and packed; returns them and the binned size.
+fn packed_layers(
+    film: &Film,
+    bin: usize,
+) -> Result<(PackedLayers, [usize; 2])> {
+    let size = [film.width(), film.height()];
+    let mut layers = BTreeMap::new();
+    let mut out_size = size;
+    for &l in Layer::ALL.iter() {
+        let (pixels, s) = binned(film.layer(l), size, bin);
+        out_size = s;
+        layers.insert(l.name(), pack_layer(&pixels)?);
+    }
+    Ok((layers, out_size))
 }
 
 fn write_reference(out: &OutputDir, reference: &ReferenceSource, film: &Film) -> Result<()> {
+    let (layers, [width, height]) = packed_layers(film, reference.bin)?;
     let payload = Payload {
-        width: film.width(),
-        height: film.height(),
-        layers: packed_layers(film)?,
+        width,
+        height,
+        bin: reference.bin,
+        layers,
         flip: None,
     };
     write_script(
@@ -247,14 +309,16 @@ fn write_cell(out: &OutputDir, cell: &CellSource<'_>, reference: Option<&Film>) 
                 w as u32,
                 h as u32,
             );
-            Some(pack_unit(&map)?)
+            Some(pack_unit(&binned(&map, [w, h], cell.bin).0)?)
         }
         None => None,
     };
+    let (layers, [width, height]) = packed_layers(&film, cell.bin)?;
     let payload = Payload {
-        width: w,
-        height: h,
-        layers: packed_layers(&film)?,
+        width,
+        height,
+        bin: cell.bin,
+        layers,
         flip,
     };
     write_script(out, &cell_path(cell.hash), &cell.stamp(), &payload)
@@ -265,6 +329,7 @@ fn sources<'a>(
     out: &OutputDir,
     cells: &'a [Collected],
     references: &'a BTreeMap<String, ReferenceSource>,
+    max_side: Option<usize>,
 ) -> Result<Vec<CellSource<'a>>> {
     let mut sources = Vec::new();
     for (position, c) in cells.iter().enumerate() {
@@ -278,8 +343,10 @@ fn sources<'a>(
             reference: None,
             exposure: record.provenance.scene.film.exposure,
             shows: Shows::of(record),
+            bin: 1,
         };
         let size = source.size(record);
+        source.bin = bin_for(size, max_side);
         source.reference = c
             .planned
             .reference
@@ -293,7 +360,11 @@ fn sources<'a>(
 
 /// Writes the data files that are missing or out of date and removes those of cells and
 /// references that are gone.
-pub(super) fn write_data(out: &OutputDir, cells: &[Collected]) -> Result<DataIndex> {
+pub(super) fn write_data(
+    out: &OutputDir,
+    cells: &[Collected],
+    max_side: Option<usize>,
+) -> Result<DataIndex> {
     let mut references = BTreeMap::new();
     let keys: BTreeSet<&String> = cells
         .iter()
@@ -301,11 +372,11 @@ pub(super) fn write_data(out: &OutputDir, cells: &[Collected]) -> Result<DataInd
         .filter_map(|c| c.planned.reference.as_ref())
         .collect();
     for key in keys {
-        if let Some(r) = reference_source(out, key)? {
+        if let Some(r) = reference_source(out, key, max_side)? {
             references.insert(key.clone(), r);
         }
     }
-    let sources = sources(out, cells, &references)?;
+    let sources = sources(out, cells, &references, max_side)?;
     let stale: Vec<&CellSource<'_>> = sources
         .iter()
         .filter(|s| !is_current(&out.root().join(cell_path(s.hash)), &s.stamp()))
@@ -398,4 +469,28 @@ fn remove_unlisted(out: &OutputDir, index: &DataIndex) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bins_average_squares_and_keep_the_edges() {
+        assert_eq!(bin_for([512, 512], Some(128)), 4);
+        assert_eq!(bin_for([160, 100], Some(128)), 2);
+        assert_eq!(bin_for([128, 64], Some(128)), 1);
+        assert_eq!(bin_for([512, 512], None), 1);
+        // 5 × 3 in bins of 2: columns {0,1} {2,3} {4}, rows {0,1} {2}.
+        let values: Vec<f32> = (0..15).map(|i| i as f32).collect();
+        let (b, size) = binned(&values, [5, 3], 2);
+        assert_eq!(size, [3, 2]);
+        assert_eq!(b, vec![3.0, 5.0, 6.5, 10.5, 12.5, 14.0]);
+        // The mean is kept: a binned image is as bright as the film.
+        let film: Vec<f32> = (0..64 * 48).map(|i| ((i * 7919) % 101) as f32).collect();
+        let (b, size) = binned(&film, [64, 48], 4);
+        let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
+        assert_eq!(size, [16, 12]);
+        assert!((mean(&b) - mean(&film)).abs() < 1e-3);
+    }
 }

@@ -74,7 +74,7 @@
     const planes = await Promise.all(names.map((l) => halfPlanes(d.layers[l], n, `${path} ${l}`)));
     const flip = d.flip ? await inflate(d.flip) : null;
     if (flip && flip.length !== n) throw new Error(`${path}: FLIP map of ${flip.length} pixels, expected ${n}`);
-    return { w: d.width, h: d.height, n, layers: Object.fromEntries(names.map((l, i) => [l, planes[i]])), flip, sums: new Map() };
+    return { w: d.width, h: d.height, bin: d.bin || 1, n, layers: Object.fromEntries(names.map((l, i) => [l, planes[i]])), flip, sums: new Map() };
   }
 
   /* Decoded films by data path, least recently used first; a few 512² films are ~10 MB each. */
@@ -452,7 +452,13 @@
     hook.lastReadout = r;
     const lum = (v) => 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
     const cell = (pane, f) => { const s = r[pane]; return s ? f(s) : '–'; };
-    const rows = [[`pixel (${r.x}, ${r.y})`, 'A', 'B']];
+    /* A committed report may hold binned pixel data: each value is the mean of bin × bin pixels. */
+    const film = PANES.map((p) => panes[p].data && panes[p].data.film).find((f) => f);
+    const bin = film ? film.bin : 1;
+    const at = bin > 1
+      ? `pixels (${r.x * bin}–${r.x * bin + bin - 1}, ${r.y * bin}–${r.y * bin + bin - 1}), mean of ${bin}×${bin}`
+      : `pixel (${r.x}, ${r.y})`;
+    const rows = [[at, 'A', 'B']];
     for (const l of LAYERS) {
       rows.push([l + (l === S.layer ? ' ◂' : ''), ...PANES.map((p) => cell(p, (s) => (s[l] ? s[l].map(fmt).join('  ') : '–')))]);
     }

@@ -30,8 +30,14 @@ pub(crate) struct Explorer {
 impl Explorer {
     /// Writes the data files that are missing or out of date (see [`data`]) and prepares
     /// the page's manifest.
-    pub(crate) fn build(out: &OutputDir, plan: &PlanRecord, cells: &[Collected]) -> Result<Self> {
-        let index = data::write_data(out, cells)?;
+    /// `max_side` bounds the pixel data's long side (`[report] explorer_max_side`).
+    pub(crate) fn build(
+        out: &OutputDir,
+        plan: &PlanRecord,
+        cells: &[Collected],
+        max_side: Option<usize>,
+    ) -> Result<Self> {
+        let index = data::write_data(out, cells, max_side)?;
         let manifest = manifest::Manifest::new(plan, cells, &index).to_script_json()?;
         Ok(Explorer { manifest })
     }
