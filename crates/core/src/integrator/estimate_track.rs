@@ -19,7 +19,7 @@ use glam::Vec3;
 
 use super::adaptive::{Track, fill_span, fraction};
 use super::gather::MapGroup;
-use super::march::{Marcher, RaySample};
+use super::pass::{Marcher, RaySample};
 use super::thinning::{BANDS, Bands, gather_stride};
 use crate::photon::GatherScratch;
 

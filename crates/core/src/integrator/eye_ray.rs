@@ -19,7 +19,7 @@ use glam::Vec3;
 use super::adaptive::{Track, fill_adaptive, fill_span, fraction};
 use super::estimate_track::EstimateTrack;
 use super::gather::{MapGroup, source_factor};
-use super::march::{Accumulator, Marcher, RaySample};
+use super::pass::{Accumulator, Marcher, RaySample};
 use super::thinning::{BANDS, Bands};
 use crate::math::{Ray, Rng};
 use crate::medium::blocked_depth;
@@ -27,7 +27,7 @@ use crate::scene::{Light, Quadrature, ShadowEstimator};
 use crate::volume::CellCursor;
 
 /// Which evaluations an eye ray makes: the scene's, or every one of them (the thinning
-/// error compares both, [`super::cache_error`]).
+/// error compares both, [`super::error_probes`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Evaluation {
     /// As the scene sets them: thinned below `thin_below`, optical depth filled by

@@ -28,20 +28,20 @@
 mod adaptive;
 mod beam;
 mod cache;
-mod cache_error;
+mod error_probes;
 mod estimate_track;
 mod eye_ray;
 mod gather;
-mod march;
+mod pass;
 mod probe;
 mod progressive;
 mod reference;
 mod thinning;
 
 pub use cache::CACHE_TAU_MAX;
-pub use cache_error::{CacheError, ErrorBound, ThinningError, error_probe_pixels};
+pub use error_probes::{CacheError, ErrorBound, ThinningError, error_probe_pixels};
 pub use gather::MsVariant;
-pub use march::{MarchOutput, MarchStats, render_march, render_march_beams};
+pub use pass::{MarchOutput, MarchStats, render_march, render_march_beams};
 pub use probe::{EyeProbe, probe_eye_rays};
 pub use progressive::{
     ProgressiveOutput, ProgressiveStats, StopReason, next_radius, progress_rows, render_progressive,

@@ -26,9 +26,9 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::beam::{beam_masked, beam_radius};
-use super::cache_error::CacheError;
+use super::error_probes::CacheError;
 use super::gather::MsVariant;
-use super::march::{
+use super::pass::{
     EyeSampleStore, EyeSamples, MarchStats, Measure, beams_measured, march_measured,
 };
 use crate::control::Control;

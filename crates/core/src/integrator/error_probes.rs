@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::eye_ray::Evaluation;
-use super::march::{Accumulator, Marcher};
+use super::pass::{Accumulator, Marcher};
 use crate::medium::Medium;
 use crate::scene::Camera;
 

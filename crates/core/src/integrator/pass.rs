@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::cache::TransmittanceCache;
-use super::cache_error::CacheError;
+use super::error_probes::CacheError;
 use super::estimate_track::GatheredEstimates;
 use super::gather::{MapGroup, MsVariant, group_by_map};
 use super::thinning::knot_cap;
@@ -299,7 +299,7 @@ pub fn render_march(
     .map(|(out, _)| out)
 }
 
-/// Whether a pass measures what its caches and thinning err by ([`super::cache_error`]).
+/// Whether a pass measures what its caches and thinning err by ([`super::error_probes`]).
 /// A progressive or beam render measures its first march, which renders every layer; its
 /// later iterations do not (they march the same eye samples with another photon map and
 /// a smaller radius, and the record holds one measurement).
