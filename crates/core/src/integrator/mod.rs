@@ -36,6 +36,7 @@ mod pass;
 mod probe;
 mod progressive;
 mod reference;
+mod sample;
 mod thinning;
 
 pub use cache::CACHE_TAU_MAX;

@@ -10,15 +10,15 @@ use serde::{Deserialize, Serialize};
 
 use super::cache::TransmittanceCache;
 use super::error_probes::CacheError;
-use super::estimate_track::GatheredEstimates;
 use super::gather::{MapGroup, MsVariant, group_by_map};
+use super::sample::{Accumulator, RaySample, RowCounters};
 use super::thinning::knot_cap;
 use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
 use crate::math::{Domain, Ray, Rng};
 use crate::medium::Medium;
-use crate::photon::{BeamMap, GatherScratch, PhotonMap};
+use crate::photon::{BeamMap, PhotonMap};
 use crate::scene::{Camera, IntegratorParams, Light, Scene};
 
 /// Counters of one marching pass.
@@ -110,79 +110,6 @@ impl EyeSampleStore {
 struct RowSamples {
     samples: Vec<RaySample>,
     ends: Vec<u32>,
-}
-
-#[derive(Default)]
-pub(super) struct RowCounters {
-    pub(super) samples: u64,
-    pub(super) shadow: u64,
-    pub(super) gathers: u64,
-}
-
-/// One marching sample of an eye ray where σt > 0.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct RaySample {
-    pub(super) x: Vec3,
-    pub(super) sigma_t: f32,
-    /// The segment's quadrature weight times the eye transmittance before it.
-    pub(super) weight: f32,
-    /// Where the sample's segment begins along the ray, its length, and the eye's optical
-    /// depth at its start (σt is constant over the segment in the march's model).
-    pub(super) t_start: f32,
-    pub(super) width: f32,
-    pub(super) tau_start: f32,
-}
-
-/// Radiance accumulated for one pixel, plus scratch space and counters of its row.
-pub(super) struct Accumulator {
-    pub(super) single: Vec3,
-    pub(super) emission: Vec3,
-    /// Sum and count of the depths where the eye transmittance fell below ½.
-    pub(super) depth_sum: f32,
-    pub(super) depth_hits: u32,
-    pub(super) multiple: Vec<Vec3>,
-    pub(super) estimates: Vec<Vec3>,
-    /// The estimates gathered behind the front of the current eye ray, and one variant's
-    /// estimate at each of its samples (module [`super::estimate_track`]).
-    pub(super) gathered: GatheredEstimates,
-    pub(super) values: Vec<Vec3>,
-    /// One gather scratch per map group (its candidates belong to that group's map).
-    pub(super) gather: Vec<GatherScratch>,
-    pub(super) counters: RowCounters,
-    /// The current eye ray's samples, and per-sample values filled along it.
-    pub(super) samples: Vec<RaySample>,
-    pub(super) tau: Vec<f32>,
-    /// The traversal stack of the beam estimate.
-    pub(super) stack: Vec<u32>,
-}
-
-impl Accumulator {
-    pub(super) fn new(variants: usize, groups: usize, max_group: usize) -> Self {
-        Accumulator {
-            single: Vec3::ZERO,
-            emission: Vec3::ZERO,
-            depth_sum: 0.0,
-            depth_hits: 0,
-            multiple: vec![Vec3::ZERO; variants],
-            estimates: vec![Vec3::ZERO; max_group],
-            gathered: GatheredEstimates::default(),
-            values: Vec::new(),
-            gather: vec![GatherScratch::default(); groups],
-            counters: RowCounters::default(),
-            samples: Vec::new(),
-            tau: Vec::new(),
-            stack: Vec::new(),
-        }
-    }
-
-    /// Clears the per-pixel sums (scratch space and counters stay).
-    pub(super) fn start_pixel(&mut self) {
-        self.single = Vec3::ZERO;
-        self.emission = Vec3::ZERO;
-        self.depth_sum = 0.0;
-        self.depth_hits = 0;
-        self.multiple.iter_mut().for_each(|m| *m = Vec3::ZERO);
-    }
 }
 
 /// One finished image row.

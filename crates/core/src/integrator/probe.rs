@@ -6,7 +6,8 @@
 //! `termination`, a thin one lets it cross the whole volume. Counting them on a coarse grid
 //! of eye rays is cheap (no shading, no photons) and gives a planner the scene's own scale.
 
-use super::pass::{Accumulator, Marcher};
+use super::pass::Marcher;
+use super::sample::Accumulator;
 use super::thinning::{Bands, knot_cap};
 use crate::math::{Domain, Rng};
 use crate::scene::Scene;

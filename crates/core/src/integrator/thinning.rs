@@ -27,7 +27,7 @@
 //! irrelevant" of the fast-and-exact issue; `sweep bench` measures its bias and 99th
 //! percentile against the uncached marcher on the thesis's headline frame.
 
-use super::pass::RaySample;
+use super::sample::RaySample;
 
 /// The largest distance between two gathers, in voxels (the smallest voxel extent). It
 /// depends on the medium and the step only, which every variant of a march shares, so an
