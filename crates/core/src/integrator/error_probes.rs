@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::eye_ray::Evaluation;
-use super::pass::Marcher;
+use super::marcher::Marcher;
 use super::sample::Accumulator;
 use crate::medium::Medium;
 use crate::scene::Camera;

@@ -19,7 +19,7 @@ use glam::Vec3;
 
 use super::adaptive::{Track, fill_span, fraction};
 use super::gather::MapGroup;
-use super::pass::Marcher;
+use super::marcher::Marcher;
 use super::sample::{GatheredEstimates, RaySample};
 use super::thinning::{BANDS, Bands, gather_stride};
 use crate::photon::GatherScratch;

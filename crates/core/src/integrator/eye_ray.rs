@@ -19,7 +19,7 @@ use glam::Vec3;
 use super::adaptive::{Track, fill_adaptive, fill_span, fraction};
 use super::estimate_track::EstimateTrack;
 use super::gather::{MapGroup, source_factor};
-use super::pass::Marcher;
+use super::marcher::Marcher;
 use super::sample::{Accumulator, RaySample};
 use super::thinning::{BANDS, Bands};
 use crate::math::{Ray, Rng};

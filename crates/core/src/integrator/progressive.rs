@@ -27,10 +27,9 @@ use serde::{Deserialize, Serialize};
 
 use super::beam::{beam_masked, beam_radius};
 use super::error_probes::CacheError;
+use super::eye_samples::{EyeSampleStore, EyeSamples};
 use super::gather::MsVariant;
-use super::pass::{
-    EyeSampleStore, EyeSamples, MarchStats, Measure, beams_measured, march_measured,
-};
+use super::pass::{MarchStats, Measure, beams_measured, march_measured};
 use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
