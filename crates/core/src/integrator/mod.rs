@@ -28,6 +28,7 @@
 mod adaptive;
 mod beam;
 mod cache;
+mod error_bound;
 mod error_probes;
 mod estimate_track;
 mod eye_ray;
@@ -42,7 +43,8 @@ mod sample;
 mod thinning;
 
 pub use cache::CACHE_TAU_MAX;
-pub use error_probes::{CacheError, ErrorBound, ThinningError, error_probe_pixels};
+pub use error_bound::ErrorBound;
+pub use error_probes::{CacheError, error_probe_pixels};
 pub use gather::MsVariant;
 pub use pass::{MarchOutput, MarchStats, render_march, render_march_beams};
 pub use probe::{EyeProbe, probe_eye_rays};
@@ -50,3 +52,4 @@ pub use progressive::{
     ProgressiveOutput, ProgressiveStats, StopReason, next_radius, progress_rows, render_progressive,
 };
 pub use reference::{MAX_VERTICES, ReferenceAccumulator, render_reference};
+pub use thinning::ThinningError;

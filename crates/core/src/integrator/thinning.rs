@@ -25,8 +25,13 @@
 //!
 //! This is the route "skip light evaluations where eye transmittance makes them
 //! irrelevant" of the fast-and-exact issue; `sweep bench` measures its bias and 99th
-//! percentile against the uncached marcher on the thesis's headline frame.
+//! percentile against the uncached marcher on the thesis's headline frame, and every
+//! render measures it on its own pixels ([`ThinningError`], by the error probes of
+//! [`super::error_probes`]).
 
+use serde::{Deserialize, Serialize};
+
+use super::error_bound::ErrorBound;
 use super::sample::RaySample;
 
 /// The largest distance between two gathers, in voxels (the smallest voxel extent). It
@@ -142,6 +147,26 @@ pub(super) fn knot_cap(voxel: f32, stepsize: f32) -> usize {
 /// samples apart and never more than `cap`.
 pub(super) fn gather_stride(b: usize, cap: usize) -> usize {
     (2usize << b).min(2 * cap)
+}
+
+/// What thinning by eye transmittance was measured to err by: the radiance of a regular
+/// 32 × 32 subset of pixels (one eye ray each) as the render evaluated them against the
+/// same rays with every sample evaluated (a gather and an exact optical depth at each:
+/// no thinning and no `shadow_stride` interpolation), layer by layer. It is the whole
+/// interpolation error of the render, not thinning's share of it: against the stride's
+/// fill alone, a thinned and an unthinned render differ where the fills pick different
+/// knots, and at σt(d_min) 290 on the engine (a mean free path per voxel) that difference
+/// was the stride's error, not thinning's.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ThinningError {
+    /// The eye transmittance below which the render thinned.
+    pub thin_below: f32,
+    /// Probe pixels.
+    pub pixels: usize,
+    /// The single-scattering layer (`None` when it is off or dark at every probe).
+    pub single: Option<ErrorBound>,
+    /// The variant's multiple-scattering layer.
+    pub multiple: Option<ErrorBound>,
 }
 
 #[cfg(test)]
