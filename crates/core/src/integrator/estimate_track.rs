@@ -1,6 +1,6 @@
 //! The photon-map estimate of one variant along the thinned samples of an eye ray
 //! (module [`super::thinning`]), error-controlled like the shadow fill
-//! ([`super::adaptive`]).
+//! ([`super::adaptive_fill`]).
 //!
 //! In thinned band `b` the estimate is gathered at every [`gather_stride`]-th sample and at
 //! each interval's midpoint; where the midpoint agrees with the straight line through the
@@ -17,7 +17,7 @@
 
 use glam::Vec3;
 
-use super::adaptive::{Track, fill_span, fraction};
+use super::adaptive_fill::{Track, fill_span, fraction};
 use super::gather::MapGroup;
 use super::marcher::Marcher;
 use super::sample::{GatheredEstimates, RaySample};

@@ -2,12 +2,12 @@
 //! and each photon map's estimates at those samples.
 //!
 //! The samples of a ray are collected before any source term is evaluated, so that the
-//! optical depth to each light can be filled along the ray ([`super::adaptive`]): with the
-//! exact estimator and `shadow_stride = s > 0` it is computed at every `s`-th sample and
-//! at interval midpoints, and interpolated only where the midpoint shows the straight line
-//! holds to within `shadow_tolerance`; everywhere else (shadow edges, cone edges, blocked
-//! stretches) every sample gets its exact value. Photon-map estimates are gathered at
-//! every sample in front: interpolating them everywhere was measured to miss the 2 %
+//! optical depth to each light can be filled along the ray ([`super::adaptive_fill`]): with
+//! the exact estimator and `shadow_stride = s > 0` it is computed at every `s`-th sample
+//! and at interval midpoints, and interpolated only where the midpoint shows the straight
+//! line holds to within `shadow_tolerance`; everywhere else (shadow edges, cone edges,
+//! blocked stretches) every sample gets its exact value. Photon-map estimates are gathered
+//! at every sample in front: interpolating them everywhere was measured to miss the 2 %
 //! per-pixel bound. Behind the front, where the eye transmittance is below `thin_below`,
 //! both are spaced out by band ([`super::thinning`]), the estimates checked at midpoints
 //! like the optical depth ([`super::estimate_track`]).
@@ -16,7 +16,7 @@ use std::ops::ControlFlow;
 
 use glam::Vec3;
 
-use super::adaptive::{Track, fill_adaptive, fill_span, fraction};
+use super::adaptive_fill::{Track, fill_adaptive, fill_span, fraction};
 use super::estimate_track::EstimateTrack;
 use super::gather::{MapGroup, source_factor};
 use super::marcher::Marcher;

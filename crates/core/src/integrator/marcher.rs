@@ -84,8 +84,8 @@ impl<'a> Marcher<'a> {
         }
     }
 
-    /// A marcher that only collects eye samples (the cost probe, [`super::probe`]): no
-    /// variants, photon maps, beams or caches.
+    /// A marcher that only collects eye samples (the cost probe, [`super::eye_probe`]):
+    /// no variants, photon maps, beams or caches.
     pub(super) fn probe(scene: &'a Scene) -> Self {
         let settings = scene.integrator();
         Marcher {

@@ -25,18 +25,18 @@
 //! multiple-scattering cache (`ms_cache`, view-independent for isotropic phase). Both
 //! caches are off by default; their error against the uncached path is measured in tests.
 
-mod adaptive;
+mod adaptive_fill;
 mod beam;
 mod cache;
 mod error_bound;
 mod error_probes;
 mod estimate_track;
+mod eye_probe;
 mod eye_ray;
 mod eye_samples;
 mod gather;
 mod marcher;
 mod pass;
-mod probe;
 mod progressive;
 mod reference;
 mod sample;
@@ -45,9 +45,9 @@ mod thinning;
 pub use cache::CACHE_TAU_MAX;
 pub use error_bound::ErrorBound;
 pub use error_probes::{CacheError, error_probe_pixels};
+pub use eye_probe::{EyeProbe, probe_eye_rays};
 pub use gather::MsVariant;
 pub use pass::{MarchOutput, MarchStats, render_march, render_march_beams};
-pub use probe::{EyeProbe, probe_eye_rays};
 pub use progressive::{
     ProgressiveOutput, ProgressiveStats, StopReason, next_radius, progress_rows, render_progressive,
 };

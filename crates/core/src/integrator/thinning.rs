@@ -15,8 +15,9 @@
 //!   ([`super::estimate_track`]) — σt and the albedo stay each sample's own;
 //! * the optical depth to each light is filled with `2^b` times the scene's
 //!   `shadow_stride` and the scene's `shadow_tolerance` divided by the band's largest eye
-//!   transmittance, `c / 2^(b−1)` ([`super::adaptive`]): an optical-depth error δτ reaches
-//!   the pixel scaled by the eye transmittance, so no band may add more than the front.
+//!   transmittance, `c / 2^(b−1)` ([`super::adaptive_fill`]): an optical-depth error δτ
+//!   reaches the pixel scaled by the eye transmittance, so no band may add more than the
+//!   front.
 //!
 //! The spacing thus grows as the weight shrinks, so each band's share of the error stays
 //! about the same. Every band boundary is an exact evaluation. The samples in front of the
@@ -105,8 +106,8 @@ impl Bands {
 
     /// The gather intervals behind the front where the estimate is smooth, `(a, b)`: the
     /// first `a` is the last sample gathered in front, each `b` is gathered, and so is the
-    /// midpoint of each interval longer than 2 (the check, [`super::adaptive`]); spacing
-    /// [`gather_stride`], ending at every band's end.
+    /// midpoint of each interval longer than 2 (the check, [`super::adaptive_fill`]);
+    /// spacing [`gather_stride`], ending at every band's end.
     pub(super) fn knots(&self, cap: usize) -> impl Iterator<Item = (usize, usize)> + '_ {
         let n = self.starts[BANDS];
         let mut a = self.last_in_front();
