@@ -40,6 +40,7 @@ mod pass;
 mod progressive;
 mod reference;
 mod sample;
+mod shadow_track;
 mod thinning;
 
 pub use cache::CACHE_TAU_MAX;
