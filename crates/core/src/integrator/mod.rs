@@ -47,7 +47,8 @@
 //! * single scattering from every light: `σs · p · I·falloff/r² · T(x → light)`;
 //! * multiple scattering from the photon map: `σs(x) · Σ p ΔΦ_p / (σt(x_p) · V_m)` with
 //!   `V_m` the medium's share of the gather sphere (eq. 11 in fluence form, normalised by
-//!   where photons can be; the thesis's own form is selectable, see [`Estimate`]);
+//!   where photons can be; the thesis's own form is selectable, see
+//!   [`Estimate`](crate::Estimate));
 //! * emission: `Le · d(x)`;
 //!
 //! each weighted by the segment's quadrature and the running eye transmittance, which is
