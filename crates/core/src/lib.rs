@@ -22,7 +22,8 @@
 //! * [`trace`] and [`PhotonMap`] — photon tracing and the volume photon map (§5);
 //! * [`render_march`] (the thesis's integrator, §6) and [`render_reference`] (the unbiased
 //!   path tracer);
-//! * [`Film`] — single / multiple / emission layers from one pass;
+//! * [`Film`] — single / multiple / emission layers from one pass; [`rmse`] and
+//!   [`agreement`] (bias and per-pixel p99, as `sweep bench` measures) compare two images;
 //! * [`render`] — the one-call entry, and [`render_shared`] for several settings from one
 //!   march.
 //!
@@ -71,7 +72,8 @@ pub mod test_util;
 pub use control::Control;
 pub use error::{Error, Result, check_non_negative, check_positive, check_range};
 pub use film::{
-    Film, Layer, mean_rgb, read_pfm, rmse, to_srgb8, write_pfm, write_png, write_png_rgb8,
+    Agreement, Film, Layer, agreement, luminance, mean_rgb, read_pfm, rmse, to_srgb8, write_pfm,
+    write_png, write_png_rgb8,
 };
 pub use integrator::{
     CACHE_TAU_MAX, CacheError, ErrorBound, EyeProbe, MAX_VERTICES, MarchOutput, MarchStats,

@@ -5,7 +5,8 @@
 use glam::Vec3;
 use volphot::test_util as common;
 use volphot::{
-    Control, IntegratorParams, Layer, MarchOutput, PhotonMap, Scene, build_photon_map, render_march,
+    Agreement, Control, IntegratorParams, Layer, MarchOutput, PhotonMap, Scene, agreement,
+    build_photon_map, render_march,
 };
 
 /// The foot phantom in the thesis's bone density (σt(d_min) = 80): most eye rays pass
@@ -47,23 +48,6 @@ fn render_with(base: &Scene, map: &PhotonMap, thin_below: f32, shadow_stride: u3
     render_march(&scene, &[map], &[], &Control::none()).unwrap()
 }
 
-/// Mean ratio − 1 and the 99th percentile of the per-pixel relative error (pixels of at
-/// least 1 % of the reference's mean, as `sweep bench` measures it).
-fn agreement(image: &[Vec3], reference: &[Vec3]) -> (f64, f64) {
-    let lum = |v: &Vec3| (0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z) as f64;
-    let total: f64 = reference.iter().map(lum).sum();
-    let floor = 0.01 * total / reference.len() as f64;
-    let mut errors: Vec<f64> = image
-        .iter()
-        .zip(reference)
-        .filter(|(_, r)| lum(r) >= floor)
-        .map(|(i, r)| ((lum(i) - lum(r)) / lum(r)).abs())
-        .collect();
-    errors.sort_by(f64::total_cmp);
-    let p99 = errors[((errors.len() - 1) as f64 * 0.99).round() as usize];
-    (image.iter().map(lum).sum::<f64>() / total - 1.0, p99)
-}
-
 #[test]
 fn thinned_layers_stay_within_the_exactness_bounds_with_fewer_evaluations() {
     let base = common::scene(SCENE);
@@ -71,7 +55,10 @@ fn thinned_layers_stay_within_the_exactness_bounds_with_fewer_evaluations() {
     let exact = render(&base, &map, 0.0);
     let thinned = render(&base, &map, 0.5);
     for layer in [Layer::Single, Layer::Multiple] {
-        let (bias, p99) = agreement(thinned.films[0].layer(layer), exact.films[0].layer(layer));
+        // Bias of the mean and the per-pixel p99, as `sweep bench` measures them.
+        let Agreement {
+            mean: bias, p99, ..
+        } = agreement(thinned.films[0].layer(layer), exact.films[0].layer(layer)).unwrap();
         assert!(bias.abs() < 0.005, "{layer:?}: bias {bias}");
         assert!(p99 < 0.02, "{layer:?}: p99 {p99}");
         // Not the same image: the interpolation is used.
@@ -188,10 +175,13 @@ fn a_noisy_estimate_is_gathered_where_the_midpoints_disagree() {
     let map = build_photon_map(&base, &Control::none()).unwrap();
     let exact = render_with(&base, &map, 0.0, 0);
     let thinned = render(&base, &map, 0.5);
-    let (bias, p99) = agreement(
+    let Agreement {
+        mean: bias, p99, ..
+    } = agreement(
         thinned.films[0].layer(Layer::Multiple),
         exact.films[0].layer(Layer::Multiple),
-    );
+    )
+    .unwrap();
     assert!(bias.abs() < 0.005 && p99 < 0.02, "bias {bias}, p99 {p99}");
     assert!(
         (thinned.stats.gathers as f64) < 0.9 * exact.stats.gathers as f64,
@@ -224,7 +214,9 @@ fn a_dense_medium_keeps_the_single_layer_within_bounds_at_the_default_shadow_tol
             .unwrap();
         let out = render_march(&scene, &[&map], &[], &Control::none()).unwrap();
         let image = out.films[0].layer(Layer::Single).to_vec();
-        let (bias, p99) = agreement(&image, every_sample.films[0].layer(Layer::Single));
+        let Agreement {
+            mean: bias, p99, ..
+        } = agreement(&image, every_sample.films[0].layer(Layer::Single)).unwrap();
         (bias, p99, out.stats.shadow_queries)
     };
     let (old_bias, old_p99, old_queries) = single(0.05);

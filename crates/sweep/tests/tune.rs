@@ -6,27 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn sweep() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_sweep"))
-}
-
-fn run_ok(cmd: &mut Command) -> Output {
-    let out = cmd.output().expect("sweep runs");
-    assert!(
-        out.status.success(),
-        "{cmd:?} failed ({}):\nstdout:\n{}\nstderr:\n{}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
-
-fn scene(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../experiments/scenes")
-        .join(name)
-}
+use volphot_tests::{read_csv, run_ok, sweep, workspace, write_experiment};
 
 /// The exhaustively swept key and its values.
 const NUSED: std::ops::RangeInclusive<i64> = 2..=201;
@@ -35,11 +15,8 @@ const SIDE: u32 = 32;
 
 /// An experiment on the engine phantom at `side`² with the given extra tables.
 fn experiment(dir: &Path, name: &str, side: u32, tables: &str) -> PathBuf {
-    let path = dir.join(format!("{name}.toml"));
-    let text = format!(
-        r#"name = "{name}"
-scene = "{}"
-max_cells = 1000
+    let tables = format!(
+        r#"max_cells = 1000
 [set]
 "volume.phantom.resolution" = [24, 24, 24]
 "camera.resolution" = [{side}, {side}]
@@ -49,12 +26,9 @@ max_cells = 1000
 "sigma.t" = 60
 [reference]
 spp = 256
-{tables}
-"#,
-        scene("phantom-engine.toml").display()
+{tables}"#
     );
-    std::fs::write(&path, text).unwrap();
-    path
+    write_experiment(dir, name, "phantom-engine.toml", &tables)
 }
 
 fn tune_tables(seed: u64, renders: usize, side: u32, space: &str) -> String {
@@ -75,17 +49,6 @@ eta = 3
 {space}
 "#
     )
-}
-
-/// `(header, rows)` of a CSV file.
-fn csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let mut r = csv::Reader::from_path(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let header = r.headers().unwrap().iter().map(str::to_string).collect();
-    let rows = r
-        .records()
-        .map(|row| row.unwrap().iter().map(str::to_string).collect())
-        .collect();
-    (header, rows)
 }
 
 fn col(header: &[String], name: &str) -> usize {
@@ -128,7 +91,7 @@ fn tune_finds_the_exhaustive_optimum_within_0_1_percent_with_a_fifth_of_the_rend
             .arg(&grid_out),
     );
     run_ok(sweep().arg("report").arg(&grid_out));
-    let (h, rows) = csv(&grid_out.join("cells.csv"));
+    let (h, rows) = read_csv(&grid_out.join("cells.csv"));
     let (nused, rmse) = (col(&h, "integrator.nused"), col(&h, "rmse"));
     let exhaustive: Vec<(i64, f64)> = rows
         .iter()
@@ -170,7 +133,7 @@ fn tune_finds_the_exhaustive_optimum_within_0_1_percent_with_a_fifth_of_the_rend
     );
     let renders = finished_cells(&out).len();
     assert!(renders <= budget, "{renders} renders > {budget}");
-    let (h, rows) = csv(&out.join("tune/pareto.csv"));
+    let (h, rows) = read_csv(&out.join("tune/pareto.csv"));
     let (key, error) = (col(&h, "integrator.nused"), col(&h, "error"));
     let (found_n, found): (i64, f64) = rows
         .iter()
@@ -196,7 +159,7 @@ fn tune_finds_the_exhaustive_optimum_within_0_1_percent_with_a_fifth_of_the_rend
         found <= 1.001 * best,
         "tune found nused {found_n} with rmse {found}, the optimum is nused {best_n} with {best} ({renders} renders of {budget})"
     );
-    let (h, rows) = csv(&out.join("tune/observations.csv"));
+    let (h, rows) = read_csv(&out.join("tune/observations.csv"));
     let (level, cells) = (col(&h, "level"), col(&h, "cells"));
     let full: std::collections::BTreeSet<&str> = rows
         .iter()
@@ -233,7 +196,7 @@ fn tune_finds_the_exhaustive_optimum_within_0_1_percent_with_a_fifth_of_the_rend
             .contains("tune/report.md")
     );
     assert!(out.join("tune/pareto.svg").is_file() && out.join("tune/pareto.png").is_file());
-    let (h, rows) = csv(&out.join("tune/sensitivity.csv"));
+    let (h, rows) = read_csv(&out.join("tune/sensitivity.csv"));
     assert_eq!(rows[0][col(&h, "parameter")], "integrator.nused");
 }
 
@@ -257,7 +220,7 @@ fn same_seed_same_proposals_and_a_rerun_renders_nothing() {
         runs.push(out);
     }
     let proposals = |out: &Path| {
-        let (h, rows) = csv(&out.join("tune/observations.csv"));
+        let (h, rows) = read_csv(&out.join("tune/observations.csv"));
         let keep: Vec<usize> = [
             "id",
             "level",
@@ -459,7 +422,7 @@ fn bad_tune_sections_are_located_errors() {
 
 #[test]
 fn the_thesis_study_plans() {
-    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/tune_thesis.toml");
+    let file = workspace().join("experiments/tune_thesis.toml");
     let tmp = tempfile::tempdir().unwrap();
     let out = run_ok(
         sweep()
@@ -627,7 +590,7 @@ fn a_second_tune_on_a_folder_being_tuned_is_refused() {
         assert!(err.contains(&expected), "`{expected}` not in: {err}");
     }
     // The first search saw every cell it rendered finished.
-    let (h, rows) = csv(&out.join("tune/observations.csv"));
+    let (h, rows) = read_csv(&out.join("tune/observations.csv"));
     let error = col(&h, "error");
     assert!(
         rows.iter()

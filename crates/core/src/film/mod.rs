@@ -14,11 +14,13 @@
 //! assert_eq!(film.total_at(0, 0), Vec3::splat(0.75));
 //! ```
 
+mod agreement;
 mod io;
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+pub use agreement::{Agreement, agreement, luminance};
 pub use io::{read_pfm, to_srgb8, write_pfm, write_png, write_png_rgb8};
 
 /// One of the film's radiance layers.

@@ -16,7 +16,8 @@
 //! per step. The eye ray's end (box exit or the `termination` cut-off) clips every chord.
 //! In a colour medium Λ varies along a chord and is taken at its midpoint.
 
-use super::march::{Accumulator, Marcher, RaySample};
+use super::marcher::Marcher;
+use super::sample::{Accumulator, RaySample};
 use crate::math::Ray;
 use crate::photon::{BeamMap, BeamRadius, Gathered};
 use crate::scene::{Estimate, InitialRadius, IntegratorParams};

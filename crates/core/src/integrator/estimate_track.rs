@@ -1,6 +1,6 @@
 //! The photon-map estimate of one variant along the thinned samples of an eye ray
 //! (module [`super::thinning`]), error-controlled like the shadow fill
-//! ([`super::adaptive`]).
+//! ([`super::adaptive_fill`]).
 //!
 //! In thinned band `b` the estimate is gathered at every [`gather_stride`]-th sample and at
 //! each interval's midpoint; where the midpoint agrees with the straight line through the
@@ -17,9 +17,10 @@
 
 use glam::Vec3;
 
-use super::adaptive::{Track, fill_span, fraction};
+use super::adaptive_fill::{Track, fill_span, fraction};
 use super::gather::MapGroup;
-use super::march::{Marcher, RaySample};
+use super::marcher::Marcher;
+use super::sample::{GatheredEstimates, RaySample};
 use super::thinning::{BANDS, Bands, gather_stride};
 use crate::photon::GatherScratch;
 
@@ -27,30 +28,6 @@ use crate::photon::GatherScratch;
 /// interpolated; band `b` allows `2^(b−1)` times this, as its samples reach the pixel with
 /// at most half the weight of the band before.
 pub(super) const ESTIMATE_TOLERANCE: f32 = 0.05;
-
-/// Every variant's estimate at the samples of one eye ray gathered so far, for one map
-/// group (shared by the group's [`EstimateTrack`]s).
-#[derive(Debug, Default)]
-pub(super) struct GatheredEstimates {
-    variants: usize,
-    /// `variants` estimates per sample.
-    at: Vec<Vec3>,
-    done: Vec<bool>,
-}
-
-impl GatheredEstimates {
-    /// Starts an eye ray of `n` samples for a group of `variants`; sample `front` is
-    /// gathered already, with `estimates`.
-    pub(super) fn start(&mut self, n: usize, variants: usize, front: usize, estimates: &[Vec3]) {
-        self.variants = variants;
-        self.at.clear();
-        self.at.resize(n * variants, Vec3::ZERO);
-        self.done.clear();
-        self.done.resize(n, false);
-        self.at[front * variants..(front + 1) * variants].copy_from_slice(estimates);
-        self.done[front] = true;
-    }
-}
 
 /// One variant's estimate along the thinned samples of an eye ray.
 pub(super) struct EstimateTrack<'a, 'm> {

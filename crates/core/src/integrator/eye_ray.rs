@@ -2,12 +2,12 @@
 //! and each photon map's estimates at those samples.
 //!
 //! The samples of a ray are collected before any source term is evaluated, so that the
-//! optical depth to each light can be filled along the ray ([`super::adaptive`]): with the
-//! exact estimator and `shadow_stride = s > 0` it is computed at every `s`-th sample and
-//! at interval midpoints, and interpolated only where the midpoint shows the straight line
-//! holds to within `shadow_tolerance`; everywhere else (shadow edges, cone edges, blocked
-//! stretches) every sample gets its exact value. Photon-map estimates are gathered at
-//! every sample in front: interpolating them everywhere was measured to miss the 2 %
+//! optical depth to each light can be filled along the ray ([`super::adaptive_fill`]): with
+//! the exact estimator and `shadow_stride = s > 0` it is computed at every `s`-th sample
+//! and at interval midpoints, and interpolated only where the midpoint shows the straight
+//! line holds to within `shadow_tolerance`; everywhere else (shadow edges, cone edges,
+//! blocked stretches) every sample gets its exact value. Photon-map estimates are gathered
+//! at every sample in front: interpolating them everywhere was measured to miss the 2 %
 //! per-pixel bound. Behind the front, where the eye transmittance is below `thin_below`,
 //! both are spaced out by band ([`super::thinning`]), the estimates checked at midpoints
 //! like the optical depth ([`super::estimate_track`]).
@@ -16,18 +16,18 @@ use std::ops::ControlFlow;
 
 use glam::Vec3;
 
-use super::adaptive::{Track, fill_adaptive, fill_span, fraction};
 use super::estimate_track::EstimateTrack;
 use super::gather::{MapGroup, source_factor};
-use super::march::{Accumulator, Marcher, RaySample};
-use super::thinning::{BANDS, Bands};
+use super::marcher::Marcher;
+use super::sample::{Accumulator, RaySample};
+use super::shadow_track::ShadowTrack;
+use super::thinning::Bands;
 use crate::math::{Ray, Rng};
-use crate::medium::blocked_depth;
-use crate::scene::{Light, Quadrature, ShadowEstimator};
+use crate::scene::{Quadrature, ShadowEstimator};
 use crate::volume::CellCursor;
 
 /// Which evaluations an eye ray makes: the scene's, or every one of them (the thinning
-/// error compares both, [`super::cache_error`]).
+/// error compares both, [`super::error_probes`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Evaluation {
     /// As the scene sets them: thinned below `thin_below`, optical depth filled by
@@ -358,71 +358,4 @@ impl Marcher<'_> {
 #[inline]
 fn transmittance_of(tau: f32, tau_max: f32) -> f32 {
     if tau > tau_max { 0.0 } else { (-tau).exp() }
-}
-
-/// The optical depth from each sample to one light, capped just above the blocking depth
-/// (samples outside a spot light's cone count as blocked, so the cone's edge is refined).
-struct ShadowTrack<'a> {
-    marcher: &'a Marcher<'a>,
-    light: &'a Light,
-    samples: &'a [RaySample],
-    tau: &'a mut [f32],
-    /// The largest optical-depth difference at a checked midpoint that still interpolates.
-    tolerance: f32,
-}
-
-impl ShadowTrack<'_> {
-    /// Fills the optical depth at every sample: in front by `stride` and `shadow_tolerance`,
-    /// in thinned band `b` by `2^b` times the stride and the tolerance divided by the band's
-    /// largest eye transmittance, `2^(b−1) / thin_below` times it
-    /// (module [`super::thinning`]); returns the number of exact evaluations.
-    fn fill(&mut self, stride: usize, bands: &Bands) -> usize {
-        let tolerance = self.tolerance;
-        let front = bands.last_in_front() + 1;
-        let mut evaluations = fill_adaptive(front, stride, self);
-        for b in 1..=BANDS {
-            let (start, end) = (bands.band_start(b), bands.band_end(b));
-            if start < end {
-                self.tolerance = tolerance * bands.shadow_tolerance_factor(b);
-                evaluations += fill_span(start, end + 1, stride << b, self);
-            }
-        }
-        self.tolerance = tolerance;
-        evaluations
-    }
-}
-
-impl Track for ShadowTrack<'_> {
-    fn evaluate(&mut self, i: usize) {
-        let medium = self.marcher.medium;
-        let tau_max = self.marcher.shadow_tau_max;
-        let blocked = blocked_depth(tau_max);
-        let x = self.samples[i].x;
-        self.tau[i] = match self.light.incident(x) {
-            None => blocked,
-            Some(inc) => {
-                let ray = Ray {
-                    origin: x,
-                    direction: inc.to_light,
-                };
-                match medium.clip(&ray) {
-                    None => 0.0,
-                    Some((t0, t1)) => {
-                        medium.optical_depth_capped(&ray, t0, t1.min(inc.distance), tau_max)
-                    }
-                }
-            }
-        };
-    }
-
-    fn interpolate(&mut self, a: usize, b: usize, i: usize) {
-        let f = fraction(a, b, i);
-        self.tau[i] = self.tau[a] + (self.tau[b] - self.tau[a]) * f;
-    }
-
-    fn agrees(&self, a: usize, b: usize, m: usize) -> bool {
-        let f = fraction(a, b, m);
-        let predicted = self.tau[a] + (self.tau[b] - self.tau[a]) * f;
-        (predicted - self.tau[m]).abs() <= self.tolerance
-    }
 }

@@ -1,6 +1,45 @@
 //! Integrators: the thesis's ray-marching integrator (§6, §7.1.3) with its optional caches,
 //! and the unbiased reference path tracer it is measured against.
 //!
+//! # Map
+//!
+//! One marching pass, stage by stage (files marked `*` each hold one part of
+//! `impl Marcher`, split by stage as `marcher.rs` explains):
+//!
+//! ```text
+//! stage                     file                 holds
+//! ────────────────────────  ───────────────────  ─────────────────────────────────────────
+//! entry, rows → films       pass.rs              render_march, render_march_beams, their
+//!                                                measured forms, MarchOutput, MarchStats
+//! one image row             marcher.rs         * Marcher (what a pass reads) and its
+//!                                                constructors, render_row, Row
+//! one eye ray               eye_ray.rs         * collect_samples, trace, add_single,
+//!                                                add_multiple, shadow_transmittance
+//!   light to a sample       shadow_track.rs      ShadowTrack: optical depth to one light
+//!   photon-map estimate     gather.rs            MsVariant, MapGroup (variants sharing a
+//!                                                k-NN query), source_factor
+//!     …behind the front     estimate_track.rs    EstimateTrack: one variant's estimate
+//!   beam estimate           beam.rs            * add_beams, beam_radius
+//!   both tracks             adaptive_fill.rs     Track, fill_adaptive (midpoint-checked)
+//!   thinning                thinning.rs          Bands, knot spacing, ThinningError
+//!   caches                  cache.rs             TransmittanceCache, ScatterCache
+//! after the pass            error_probes.rs    * CacheError, error_probe_pixels, probing
+//!                           error_bound.rs       ErrorBound (relative error of pairs)
+//! between passes            eye_samples.rs       EyeSamples, EyeSampleStore (replay)
+//! every stage (a leaf)      sample.rs            RaySample, Accumulator, RowCounters,
+//!                                                GatheredEstimates
+//! ```
+//!
+//! Around the pass: `progressive.rs` (render_progressive: progressive photon mapping and
+//! progressive beams, one pass per iteration), `eye_probe.rs` (probe_eye_rays: samples per
+//! eye ray, measured before rendering) and `reference.rs` (render_reference: the unbiased
+//! path tracer, which needs no marcher). Imports run one way, from the entry points down to
+//! the leaves `sample.rs`, `error_bound.rs` and `adaptive_fill.rs`, except between
+//! `gather.rs` and `cache.rs` (a map group owns its scattering cache, whose nodes are
+//! masked by gather.rs's `mask_estimates`).
+//!
+//! # The marching integrator
+//!
 //! Each eye ray is cut into segments of `stepsize`; one sample per segment at a random
 //! offset that is the same for every segment of the ray (Pauly et al. 2000). At each sample
 //! with σt > 0 (samples with σs = 0 are skipped, §7.1.3):
@@ -8,7 +47,8 @@
 //! * single scattering from every light: `σs · p · I·falloff/r² · T(x → light)`;
 //! * multiple scattering from the photon map: `σs(x) · Σ p ΔΦ_p / (σt(x_p) · V_m)` with
 //!   `V_m` the medium's share of the gather sphere (eq. 11 in fluence form, normalised by
-//!   where photons can be; the thesis's own form is selectable, see [`Estimate`]);
+//!   where photons can be; the thesis's own form is selectable, see
+//!   [`Estimate`](crate::Estimate));
 //! * emission: `Le · d(x)`;
 //!
 //! each weighted by the segment's quadrature and the running eye transmittance, which is
@@ -25,25 +65,32 @@
 //! multiple-scattering cache (`ms_cache`, view-independent for isotropic phase). Both
 //! caches are off by default; their error against the uncached path is measured in tests.
 
-mod adaptive;
+mod adaptive_fill;
 mod beam;
 mod cache;
-mod cache_error;
+mod error_bound;
+mod error_probes;
 mod estimate_track;
+mod eye_probe;
 mod eye_ray;
+mod eye_samples;
 mod gather;
-mod march;
-mod probe;
+mod marcher;
+mod pass;
 mod progressive;
 mod reference;
+mod sample;
+mod shadow_track;
 mod thinning;
 
 pub use cache::CACHE_TAU_MAX;
-pub use cache_error::{CacheError, ErrorBound, ThinningError, error_probe_pixels};
+pub use error_bound::ErrorBound;
+pub use error_probes::{CacheError, error_probe_pixels};
+pub use eye_probe::{EyeProbe, probe_eye_rays};
 pub use gather::MsVariant;
-pub use march::{MarchOutput, MarchStats, render_march, render_march_beams};
-pub use probe::{EyeProbe, probe_eye_rays};
+pub use pass::{MarchOutput, MarchStats, render_march, render_march_beams};
 pub use progressive::{
     ProgressiveOutput, ProgressiveStats, StopReason, next_radius, progress_rows, render_progressive,
 };
 pub use reference::{MAX_VERTICES, ReferenceAccumulator, render_reference};
+pub use thinning::ThinningError;

@@ -26,11 +26,10 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::beam::{beam_masked, beam_radius};
-use super::cache_error::CacheError;
+use super::error_probes::CacheError;
+use super::eye_samples::{EyeSampleStore, EyeSamples};
 use super::gather::MsVariant;
-use super::march::{
-    EyeSampleStore, EyeSamples, MarchStats, Measure, beams_measured, march_measured,
-};
+use super::pass::{MarchStats, Measure, beams_measured, march_measured};
 use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};

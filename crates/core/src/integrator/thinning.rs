@@ -15,8 +15,9 @@
 //!   ([`super::estimate_track`]) — σt and the albedo stay each sample's own;
 //! * the optical depth to each light is filled with `2^b` times the scene's
 //!   `shadow_stride` and the scene's `shadow_tolerance` divided by the band's largest eye
-//!   transmittance, `c / 2^(b−1)` ([`super::adaptive`]): an optical-depth error δτ reaches
-//!   the pixel scaled by the eye transmittance, so no band may add more than the front.
+//!   transmittance, `c / 2^(b−1)` ([`super::adaptive_fill`]): an optical-depth error δτ
+//!   reaches the pixel scaled by the eye transmittance, so no band may add more than the
+//!   front.
 //!
 //! The spacing thus grows as the weight shrinks, so each band's share of the error stays
 //! about the same. Every band boundary is an exact evaluation. The samples in front of the
@@ -25,9 +26,14 @@
 //!
 //! This is the route "skip light evaluations where eye transmittance makes them
 //! irrelevant" of the fast-and-exact issue; `sweep bench` measures its bias and 99th
-//! percentile against the uncached marcher on the thesis's headline frame.
+//! percentile against the uncached marcher on the thesis's headline frame, and every
+//! render measures it on its own pixels ([`ThinningError`], by the error probes of
+//! [`super::error_probes`]).
 
-use super::march::RaySample;
+use serde::{Deserialize, Serialize};
+
+use super::error_bound::ErrorBound;
+use super::sample::RaySample;
 
 /// The largest distance between two gathers, in voxels (the smallest voxel extent). It
 /// depends on the medium and the step only, which every variant of a march shares, so an
@@ -100,8 +106,8 @@ impl Bands {
 
     /// The gather intervals behind the front where the estimate is smooth, `(a, b)`: the
     /// first `a` is the last sample gathered in front, each `b` is gathered, and so is the
-    /// midpoint of each interval longer than 2 (the check, [`super::adaptive`]); spacing
-    /// [`gather_stride`], ending at every band's end.
+    /// midpoint of each interval longer than 2 (the check, [`super::adaptive_fill`]);
+    /// spacing [`gather_stride`], ending at every band's end.
     pub(super) fn knots(&self, cap: usize) -> impl Iterator<Item = (usize, usize)> + '_ {
         let n = self.starts[BANDS];
         let mut a = self.last_in_front();
@@ -142,6 +148,26 @@ pub(super) fn knot_cap(voxel: f32, stepsize: f32) -> usize {
 /// samples apart and never more than `cap`.
 pub(super) fn gather_stride(b: usize, cap: usize) -> usize {
     (2usize << b).min(2 * cap)
+}
+
+/// What thinning by eye transmittance was measured to err by: the radiance of a regular
+/// 32 × 32 subset of pixels (one eye ray each) as the render evaluated them against the
+/// same rays with every sample evaluated (a gather and an exact optical depth at each:
+/// no thinning and no `shadow_stride` interpolation), layer by layer. It is the whole
+/// interpolation error of the render, not thinning's share of it: against the stride's
+/// fill alone, a thinned and an unthinned render differ where the fills pick different
+/// knots, and at σt(d_min) 290 on the engine (a mean free path per voxel) that difference
+/// was the stride's error, not thinning's.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ThinningError {
+    /// The eye transmittance below which the render thinned.
+    pub thin_below: f32,
+    /// Probe pixels.
+    pub pixels: usize,
+    /// The single-scattering layer (`None` when it is off or dark at every probe).
+    pub single: Option<ErrorBound>,
+    /// The variant's multiple-scattering layer.
+    pub multiple: Option<ErrorBound>,
 }
 
 #[cfg(test)]

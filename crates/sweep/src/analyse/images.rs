@@ -15,10 +15,8 @@ use crate::store::{
     DiscoScore, IMAGE_STATS_VERSION, ImageStats, REFERENCE_METRICS_VERSION, ReferenceMetrics,
 };
 
-/// Luminance (Rec. 709).
-pub(crate) fn luminance(v: Vec3) -> f32 {
-    0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z
-}
+/// Luminance (Rec. 709), the one core's [`agreement`](volphot::agreement) weighs by.
+pub(crate) use volphot::luminance;
 
 /// The layers a cell displays: single (+ multiple when rendered) (+ emission when rendered).
 pub(crate) fn displayed(film: &Film, multiple: bool, emission: bool) -> Vec<Vec3> {

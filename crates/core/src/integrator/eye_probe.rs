@@ -6,8 +6,9 @@
 //! `termination`, a thin one lets it cross the whole volume. Counting them on a coarse grid
 //! of eye rays is cheap (no shading, no photons) and gives a planner the scene's own scale.
 
-use super::march::{Accumulator, Marcher};
-use super::thinning::{Bands, knot_cap};
+use super::marcher::Marcher;
+use super::sample::Accumulator;
+use super::thinning::Bands;
 use crate::math::{Domain, Rng};
 use crate::scene::Scene;
 
@@ -39,21 +40,7 @@ pub struct EyeProbe {
 /// ```
 pub fn probe_eye_rays(scene: &Scene, rays: u32) -> EyeProbe {
     let settings = scene.integrator();
-    let marcher = Marcher {
-        medium: scene.medium(),
-        lights: scene.lights(),
-        settings,
-        variants: &[],
-        groups: Vec::new(),
-        beams: None,
-        shadow_caches: None,
-        shadow_tau_max: f32::INFINITY,
-        gather_knot_cap: knot_cap(
-            scene.medium().density_grid().voxel_size().min_element(),
-            settings.stepsize,
-        ),
-        replay: None,
-    };
+    let marcher = Marcher::probe(scene);
     let camera = scene.camera();
     let (width, height) = (camera.width() as f32, camera.height() as f32);
     let rays = rays.max(1);

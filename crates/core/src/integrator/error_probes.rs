@@ -1,4 +1,5 @@
-//! The measured error of a render's caches.
+//! The error probes: what a render's caches and its thinning err by, measured after the
+//! pass ([`CacheError`], each quantity an [`ErrorBound`]; thinning's a [`ThinningError`]).
 //!
 //! A cache trades exactness for speed, so a render that used one says by how much: after
 //! the pass, the marching samples of a regular 32 × 32 subset of the eye rays (the same
@@ -18,8 +19,11 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::error_bound::ErrorBound;
 use super::eye_ray::Evaluation;
-use super::march::{Accumulator, Marcher};
+use super::marcher::Marcher;
+use super::sample::Accumulator;
+use super::thinning::ThinningError;
 use crate::medium::Medium;
 use crate::scene::Camera;
 
@@ -41,44 +45,6 @@ pub fn error_probe_pixels(width: u32, height: u32) -> u32 {
     PROBE_RAYS_PER_AXIS.min(width) * PROBE_RAYS_PER_AXIS.min(height)
 }
 
-/// The error of one cached quantity at the probes.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct ErrorBound {
-    /// Σ cached / Σ exact − 1: the bias of a mean.
-    pub mean: f64,
-    /// 99th percentile of |cached − exact| / exact.
-    pub p99: f64,
-    /// Largest |cached − exact| / exact.
-    pub max: f64,
-}
-
-impl ErrorBound {
-    /// The bound of paired `(cached, exact)` values: relative errors where the exact value
-    /// is at least 1 % of the largest (`None` when no value is).
-    pub fn of(pairs: &[(f32, f32)]) -> Option<ErrorBound> {
-        let largest = pairs.iter().map(|p| p.1).fold(0.0f32, f32::max);
-        if largest <= 0.0 {
-            return None;
-        }
-        let (mut cached, mut exact) = (0.0f64, 0.0f64);
-        let mut relative: Vec<f64> = Vec::with_capacity(pairs.len());
-        for &(c, e) in pairs {
-            cached += c as f64;
-            exact += e as f64;
-            if e >= 0.01 * largest {
-                relative.push(((c - e) / e).abs() as f64);
-            }
-        }
-        relative.sort_by(f64::total_cmp);
-        let p99 = relative[((relative.len() - 1) as f64 * 0.99).round() as usize];
-        Some(ErrorBound {
-            mean: cached / exact - 1.0,
-            p99,
-            max: *relative.last().expect("the largest value qualifies"),
-        })
-    }
-}
-
 /// What a render's caches and its thinning were measured to err by, for one output image.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CacheError {
@@ -98,26 +64,6 @@ impl CacheError {
     pub fn has_cache(&self) -> bool {
         self.shadow.is_some() || self.multiple.is_some()
     }
-}
-
-/// What thinning by eye transmittance was measured to err by: the radiance of a regular
-/// 32 × 32 subset of pixels (one eye ray each) as the render evaluated them against the
-/// same rays with every sample evaluated (a gather and an exact optical depth at each:
-/// no thinning and no `shadow_stride` interpolation), layer by layer. It is the whole
-/// interpolation error of the render, not thinning's share of it: against the stride's
-/// fill alone, a thinned and an unthinned render differ where the fills pick different
-/// knots, and at σt(d_min) 290 on the engine (a mean free path per voxel) that difference
-/// was the stride's error, not thinning's.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct ThinningError {
-    /// The eye transmittance below which the render thinned.
-    pub thin_below: f32,
-    /// Probe pixels.
-    pub pixels: usize,
-    /// The single-scattering layer (`None` when it is off or dark at every probe).
-    pub single: Option<ErrorBound>,
-    /// The variant's multiple-scattering layer.
-    pub multiple: Option<ErrorBound>,
 }
 
 impl Marcher<'_> {
@@ -295,18 +241,4 @@ fn exact_transmittance(medium: &Medium, x: Vec3, to_light: Vec3, distance: f32) 
 
 fn mean3(v: Vec3) -> f32 {
     (v.x + v.y + v.z) / 3.0
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn bounds_ignore_negligible_values_and_report_the_bias() {
-        let pairs = [(1.1, 1.0), (0.9, 1.0), (2.0, 2.0), (1e-6, 1e-4)];
-        let b = ErrorBound::of(&pairs).unwrap();
-        assert!((b.max - 0.1).abs() < 1e-6, "{b:?}");
-        assert!((b.mean - (4.000001 / 4.0001 - 1.0)).abs() < 1e-9, "{b:?}");
-        assert_eq!(ErrorBound::of(&[(1.0, 0.0)]), None);
-    }
 }
