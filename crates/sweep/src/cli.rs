@@ -426,6 +426,9 @@ pub(crate) struct ClaimsArgs {
     /// Print every claim, not only those that differ or cannot be checked.
     #[arg(long, short)]
     pub(crate) verbose: bool,
+    /// Resolve the claims' sources against this folder instead of each document's own.
+    #[arg(long, value_name = "DIR")]
+    pub(crate) base: Option<PathBuf>,
 }
 
 /// `sweep bench`.

@@ -93,10 +93,13 @@ pub(crate) fn claims_in(text: &str) -> Vec<Claim> {
 }
 
 /// Checks every claim of the document at `path` against the data, with sources relative to
-/// the document's folder.
-pub(crate) fn check(path: &Path) -> Result<Vec<Checked>> {
+/// `base` (default: the document's folder).
+pub(crate) fn check(path: &Path, base: Option<&Path>) -> Result<Vec<Checked>> {
     let text = volphot::read_text_capped(path, volphot::TEXT_INPUT_CAP, "Markdown document")?;
-    let base: PathBuf = path.parent().map_or(PathBuf::from("."), Path::to_path_buf);
+    let base: PathBuf = match base {
+        Some(b) => b.to_path_buf(),
+        None => path.parent().map_or(PathBuf::from("."), Path::to_path_buf),
+    };
     let mut sources = Sources::default();
     Ok(claims_in(&text)
         .into_iter()
@@ -150,8 +153,12 @@ pub(crate) fn updated(text: &str, checked: &[Checked]) -> String {
 }
 
 /// Reads, checks and (with `update`) rewrites a document; returns its checked claims.
-pub(crate) fn check_document(path: &Path, update: bool) -> Result<Vec<Checked>> {
-    let checked = check(path)?;
+pub(crate) fn check_document(
+    path: &Path,
+    base: Option<&Path>,
+    update: bool,
+) -> Result<Vec<Checked>> {
+    let checked = check(path, base)?;
     if update
         && checked
             .iter()
@@ -204,7 +211,7 @@ mod tests {
         let good = "RMSE 0.0312<!-- = value(s: rmse | nused=25) --> at nused 25, \
                     falling by 59 %<!-- = 100 * (1 - mean(s: rmse | nused=150) / value(s: rmse | nused=25)) -->.\n";
         std::fs::write(&doc, good).unwrap();
-        let checked = check_document(&doc, false).unwrap();
+        let checked = check_document(&doc, None, false).unwrap();
         assert!(
             checked
                 .iter()
@@ -212,11 +219,11 @@ mod tests {
             "{checked:?}"
         );
         std::fs::write(&doc, good.replace("0.0312", "0.0321")).unwrap();
-        let checked = check_document(&doc, true).unwrap();
+        let checked = check_document(&doc, None, true).unwrap();
         assert!(matches!(checked[0].outcome, Outcome::Differs(v) if v == 0.0312));
         assert_eq!(std::fs::read_to_string(&doc).unwrap(), good);
         std::fs::write(&doc, "RMSE 0.03<!-- = value(s: rmse | nused=150) -->\n").unwrap();
-        let checked = check_document(&doc, false).unwrap();
+        let checked = check_document(&doc, None, false).unwrap();
         assert!(
             matches!(&checked[0].outcome, Outcome::Broken(m) if m.contains("2 rows match")),
             "{checked:?}"

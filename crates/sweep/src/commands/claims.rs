@@ -11,7 +11,7 @@ use crate::cli::ClaimsArgs;
 pub(crate) fn run(args: &ClaimsArgs) -> Result<ExitCode> {
     let mut wrong = 0;
     for document in &args.documents {
-        let checked = check_document(document, args.update)?;
+        let checked = check_document(document, args.base.as_deref(), args.update)?;
         let count = |f: fn(&Outcome) -> bool| checked.iter().filter(|c| f(&c.outcome)).count();
         let differ = count(|o| matches!(o, Outcome::Differs(_)));
         let broken = count(|o| matches!(o, Outcome::Broken(_)));
