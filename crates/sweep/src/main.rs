@@ -5,8 +5,10 @@
 
 mod analyse;
 mod backend;
+mod bench;
 mod cli;
 mod commands;
+mod cost;
 mod plan;
 mod progress;
 mod render;

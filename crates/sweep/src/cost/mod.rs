@@ -1,5 +1,5 @@
 //! `sweep plan`: the cells of an experiment and a cost estimate, measured by pilot renders
-//! on this machine ([`super::pilot`]) or, with `--no-pilot` or where a scene cannot be
+//! on this machine ([`pilot`]) or, with `--no-pilot` or where a scene cannot be
 //! loaded, from a model calibrated on one frame.
 
 use std::collections::{HashMap, HashSet};
@@ -10,11 +10,13 @@ use volphot::{
     EyeProbe, Method, MsEstimator, SceneParams, SearchPath, ShadowEstimator, probe_eye_rays,
 };
 
-use super::pilot::{self, Pilots};
+mod pilot;
+
 use crate::cli::PlanArgs;
 use crate::plan::{CellSpec, Experiment, ReferenceMethod, reference_key, reference_params};
 use crate::render::Caches;
 use crate::store::ReferencePool;
+use pilot::Pilots;
 
 /// Wall-clock seconds on 2 cores, measured on the thesis's headline scene (real foot 256³,
 /// σt(d_min) 80, three spot lights, 512²) in the `--paper` runs of `cost/` and `stepsize/`

@@ -19,6 +19,8 @@ use volphot::{
     process_cpu_seconds,
 };
 
+mod peer;
+
 use crate::analyse::{Agreement, agreement, mse_against_noisy_reference};
 use crate::cli::{BenchArgs, BenchConfig};
 
@@ -155,10 +157,10 @@ pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
         params.camera.resolution = resolution;
     }
     if args.peer.is_some() {
-        return super::peer::run(args, &scene_path, &params);
+        return peer::run(args, &scene_path, &params);
     }
     if args.estimators {
-        return super::peer::run_estimators(args, &scene_path, &params);
+        return peer::run_estimators(args, &scene_path, &params);
     }
     let pool = crate::render::thread_pool(args.threads)?;
     let single_pool = crate::render::thread_pool(Some(1))?;
