@@ -8,6 +8,7 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use crate::backend::{Backend, Local, Slurm, SlurmOptions};
+use crate::bench::{BenchMode, BenchOptions};
 use crate::plan::Quality;
 use crate::render::CellFilter;
 use crate::tune::{TuneMode, TuneOptions};
@@ -574,6 +575,47 @@ fn backend(
         }),
         BackendChoice::Slurm => Box::new(Slurm { options: slurm }),
     })
+}
+
+impl BenchArgs {
+    /// The validated options of `sweep bench`.
+    pub(crate) fn options(&self) -> BenchOptions {
+        let mode = match (self.peer, self.estimators) {
+            (Some(Peer::Mitsuba), _) => BenchMode::Peer,
+            (None, true) => BenchMode::Estimators,
+            (None, false) => BenchMode::Configurations,
+        };
+        BenchOptions {
+            mode,
+            quick: self.quick,
+            threads: self.threads,
+            scene: self.scene.clone(),
+            only: self.only.iter().map(|c| c.config()).collect(),
+            reference_passes: self.reference_passes,
+            python: self.python.clone(),
+            peer_spp: self.peer_spp.clone(),
+            seeds: self.seeds,
+            resolution: self.resolution,
+            peer_dir: self.peer_dir.clone(),
+            json: self.json.clone(),
+        }
+    }
+}
+
+impl BenchConfig {
+    /// The configuration it names.
+    fn config(self) -> crate::bench::BenchConfig {
+        use crate::bench::BenchConfig as C;
+        match self {
+            BenchConfig::Marched => C::Marched,
+            BenchConfig::Exact => C::Exact,
+            BenchConfig::EverySample => C::EverySample,
+            BenchConfig::Thinned => C::Thinned,
+            BenchConfig::OneThread => C::OneThread,
+            BenchConfig::Cached => C::Cached,
+            BenchConfig::Efficiency => C::Efficiency,
+        }
+    }
 }
 
 impl TuneArgs {

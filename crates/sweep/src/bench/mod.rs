@@ -1,4 +1,5 @@
-//! `sweep bench`: the thesis's headline frame, configurations side by side in one run.
+//! `sweep bench`: the thesis's headline frame, configurations side by side in one run; the
+//! peer and estimator comparisons are in [`peer`].
 //!
 //! foot (256³), 512×512, 40 000 photons, nused 150, maxdist 0.1, stepsize 0.0005, three-point
 //! spot lights, single + multiple (the thesis needed 2500–3000 s on a 2006 Xeon, §8.2).
@@ -22,7 +23,65 @@ use volphot::{
 mod peer;
 
 use crate::analyse::{Agreement, agreement, mse_against_noisy_reference};
-use crate::cli::{BenchArgs, BenchConfig};
+
+/// A configuration of the headline frame (see `sweep bench --help` for each).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum BenchConfig {
+    /// The thesis's integrator as v0.1 ran it (what the others are compared with).
+    Marched,
+    /// Exact optical depth, filled along each eye ray; every gather.
+    Exact,
+    /// Exact optical depth at every sample.
+    EverySample,
+    /// The default: gathers and fills thinned by eye transmittance.
+    Thinned,
+    /// The default on one thread.
+    OneThread,
+    /// The transmittance and scattering caches.
+    Cached,
+    /// Single scattering: the marcher against the path tracer.
+    Efficiency,
+}
+
+/// What `sweep bench` compares.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum BenchMode {
+    /// The configurations side by side.
+    Configurations,
+    /// volphot against Mitsuba 3.
+    Peer,
+    /// The multiple-scattering estimators against the path tracer.
+    Estimators,
+}
+
+/// The validated options of `sweep bench`.
+#[derive(Debug, Clone)]
+pub(crate) struct BenchOptions {
+    /// What is compared.
+    pub(crate) mode: BenchMode,
+    /// A small frame on the foot phantom instead of the real foot at 512².
+    pub(crate) quick: bool,
+    /// Worker threads of the multi-threaded runs (all cores when `None`).
+    pub(crate) threads: Option<usize>,
+    /// Scene to benchmark instead of the headline frame.
+    pub(crate) scene: Option<PathBuf>,
+    /// The configurations to run (all when empty).
+    pub(crate) only: Vec<BenchConfig>,
+    /// Passes of the path tracer.
+    pub(crate) reference_passes: Option<u32>,
+    /// Python with Mitsuba 3 installed.
+    pub(crate) python: Option<PathBuf>,
+    /// Samples per pixel of the peer comparison's renders.
+    pub(crate) peer_spp: Vec<u32>,
+    /// Seeds per setting of the peer comparison.
+    pub(crate) seeds: u32,
+    /// Image size (overrides the scene's).
+    pub(crate) resolution: Option<[u32; 2]>,
+    /// Where the peer comparison's files are kept (a temporary folder when `None`).
+    pub(crate) peer_dir: Option<PathBuf>,
+    /// Where the measurements are written as JSON.
+    pub(crate) json: Option<PathBuf>,
+}
 
 /// Every configuration, in the order they run.
 const ALL: [BenchConfig; 7] = [
@@ -80,7 +139,7 @@ struct BenchReport {
 }
 
 /// The headline scene: the foot preset, or the foot phantom at 256² with `--quick`.
-pub(super) fn headline(args: &BenchArgs) -> PathBuf {
+fn headline(args: &BenchOptions) -> PathBuf {
     if let Some(s) = &args.scene {
         return s.clone();
     }
@@ -146,7 +205,7 @@ fn config_name(config: BenchConfig) -> &'static str {
 }
 
 /// Runs the benchmark.
-pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
+pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     let scene_path = headline(args);
     let (mut params, _) = crate::plan::load_scene(&scene_path)
         .with_context(|| format!("benchmark scene {}", scene_path.display()))?;
@@ -156,11 +215,10 @@ pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
     if let Some(resolution) = args.resolution {
         params.camera.resolution = resolution;
     }
-    if args.peer.is_some() {
-        return peer::run(args, &scene_path, &params);
-    }
-    if args.estimators {
-        return peer::run_estimators(args, &scene_path, &params);
+    match args.mode {
+        BenchMode::Peer => return peer::run(args, &scene_path, &params),
+        BenchMode::Estimators => return peer::run_estimators(args, &scene_path, &params),
+        BenchMode::Configurations => {}
     }
     let pool = crate::render::thread_pool(args.threads)?;
     let single_pool = crate::render::thread_pool(Some(1))?;

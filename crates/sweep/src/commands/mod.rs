@@ -1,8 +1,12 @@
-//! One module per verb.
+//! One module per verb: each turns its arguments into options and calls the module that
+//! does the work (`plan` prints what [`crate::cost`] estimates, `bench` runs
+//! [`crate::bench`], `tune` is [`crate::tune`]).
 
+mod bench;
 mod datasets;
 mod export;
 mod import;
+mod plan;
 mod render;
 mod report;
 mod run;
@@ -20,11 +24,11 @@ pub(crate) fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Datasets(a) => datasets::run(&a),
         Command::Render(a) => render::run(&a),
-        Command::Plan(a) => crate::cost::run(&a),
+        Command::Plan(a) => plan::run(&a),
         Command::Run(a) => run::run(&a),
         Command::Report(a) => report::run(&a),
         Command::Status(a) => status::run(&a),
-        Command::Bench(a) => crate::bench::run(&a),
+        Command::Bench(a) => bench::run(&a),
         Command::Export(a) => export::run(&a),
         Command::Import(a) => import::run(&a),
         Command::Tune(a) => crate::tune::run(&a.options()?),

@@ -1,18 +1,16 @@
-//! `sweep plan`: the cells of an experiment and a cost estimate, measured by pilot renders
-//! on this machine ([`pilot`]) or, with `--no-pilot` or where a scene cannot be
-//! loaded, from a model calibrated on one frame.
+//! What a plan costs: each cell's wall-clock seconds, measured by pilot renders on this
+//! machine ([`pilot`]) or, with `--no-pilot` or where a scene cannot be loaded, from a
+//! model calibrated on one frame (`sweep plan` prints it).
+
+mod pilot;
 
 use std::collections::{HashMap, HashSet};
-use std::process::ExitCode;
 
 use anyhow::Result;
 use volphot::{
     EyeProbe, Method, MsEstimator, SceneParams, SearchPath, ShadowEstimator, probe_eye_rays,
 };
 
-mod pilot;
-
-use crate::cli::PlanArgs;
 use crate::plan::{CellSpec, Experiment, ReferenceMethod, reference_key, reference_params};
 use crate::render::Caches;
 use crate::store::ReferencePool;
@@ -210,12 +208,14 @@ impl Probes {
 /// The estimate of the experiment's references: each distinct one once, less the passes a
 /// reference pool already holds.
 #[derive(Debug, Default)]
-struct ReferenceEstimate {
-    seconds: f64,
-    count: usize,
+pub(crate) struct ReferenceEstimate {
+    /// Seconds left to render.
+    pub(crate) seconds: f64,
+    /// Distinct references.
+    pub(crate) count: usize,
     /// References the pool holds at the wanted passes, and those it holds in part.
-    pooled: usize,
-    partly_pooled: usize,
+    pub(crate) pooled: usize,
+    pub(crate) partly_pooled: usize,
 }
 
 impl ReferenceEstimate {
@@ -254,7 +254,7 @@ impl ReferenceEstimate {
     }
 
     /// What the pool took off, for the summary line.
-    fn pool_note(&self, pool: Option<&ReferencePool>) -> String {
+    pub(crate) fn pool_note(&self, pool: Option<&ReferencePool>) -> String {
         match pool {
             Some(pool) => format!(
                 "; the pool {} holds {} of them and {} in part",
@@ -368,44 +368,61 @@ fn cell_estimates(
     (estimates, modelled)
 }
 
-/// Prints each cell's estimated cost and the total: cells of one march group pay their
+/// How a plan is costed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum CostMethod {
+    /// Pilot renders on this machine (the model where a scene cannot be loaded).
+    Pilot,
+    /// The model calibrated on one frame, scaled by each scene's probed march.
+    Model,
+}
+
+/// What a plan is estimated to cost.
+pub(crate) struct PlanEstimate {
+    /// Each cell's seconds (its share of a shared march), in plan order.
+    pub(crate) cells: Vec<f64>,
+    /// The march groups a run renders together, as plan indices.
+    pub(crate) groups: Vec<Vec<usize>>,
+    /// Seconds of loading and preparing the pilots' volumes (a run loads them too).
+    pub(crate) setup: f64,
+    /// The experiment's references.
+    pub(crate) references: ReferenceEstimate,
+    /// How the costs were found, one sentence for the summary.
+    pub(crate) how: String,
+    /// Seconds spent probing eye-march lengths for the model.
+    pub(crate) probe_seconds: f64,
+}
+
+impl PlanEstimate {
+    /// Seconds of the cells, volumes loaded included.
+    pub(crate) fn cells_total(&self) -> f64 {
+        self.cells.iter().sum::<f64>() + self.setup
+    }
+
+    /// Seconds of everything: cells and references.
+    pub(crate) fn total(&self) -> f64 {
+        self.cells_total() + self.references.seconds
+    }
+}
+
+/// Estimates each cell's cost and the references': cells of one march group pay their
 /// shared march once, and each distinct reference is counted once.
-fn print_estimates(
+pub(crate) fn estimate(
     exp: &Experiment,
     cells: &[CellSpec],
-    hashes: &[String],
-    plan_seconds: f64,
     pool: Option<&ReferencePool>,
-    mut costing: Costing,
-) -> Result<()> {
+    method: CostMethod,
+) -> Result<PlanEstimate> {
+    let mut costing = match method {
+        CostMethod::Pilot => Costing::Pilot(Pilots::default()),
+        CostMethod::Model => Costing::Model,
+    };
     let mut probes = Probes::default();
     let groups = march_groups(exp, cells);
     let (estimates, modelled) = cell_estimates(&groups, cells.len(), &mut costing, &mut probes);
-    println!("{:>5}  {:<16}  {:>9}  cell", "index", "hash", "est. [s]");
-    for ((c, hash), est) in cells.iter().zip(hashes).zip(&estimates) {
-        println!("{:>5}  {:<16}  {:>9.1}  {}", c.index, hash, est, c.label());
-    }
     let references = ReferenceEstimate::of(exp, cells, pool, &mut costing)?;
     let (setup, how) = match &costing {
-        Costing::Pilot(p) => (
-            p.setup_seconds,
-            format!(
-                "Measured: each march group and reference rendered at {side} pixels a side ({iterated} for progressive and beam cells) on this machine ({renders} pilot render(s), {secs:.1} s{model}), scaled to its size; {setup:.1} s of loading the volumes included",
-                side = pilot::PILOT_SIDE,
-                iterated = pilot::ITERATED_PILOT_SIDE,
-                renders = p.renders,
-                secs = p.seconds,
-                model = if modelled > 0 {
-                    format!(
-                        "; {modelled} group(s) whose scene could not be loaded from the model, calibrated on the foot at σt 80 and scaled by {}",
-                        probes.summary()
-                    )
-                } else {
-                    String::new()
-                },
-                setup = p.setup_seconds,
-            ),
-        ),
+        Costing::Pilot(p) => (p.setup_seconds, pilot_sentence(p, modelled, &probes)),
         Costing::Model => (
             0.0,
             format!(
@@ -414,75 +431,37 @@ fn print_estimates(
             ),
         ),
     };
-    let cells_total: f64 = estimates.iter().sum::<f64>() + setup;
-    let total = cells_total + references.seconds;
-    println!(
-        "estimated {total:.0} s of rendering ({:.1} h): {cells_total:.0} s for the cells in {} march group(s) and {:.0} s for {} reference(s){}. {how}. Planned in {:.3} s.",
-        total / 3600.0,
-        groups.len(),
-        references.seconds,
-        references.count,
-        references.pool_note(pool),
-        plan_seconds + probes.seconds
-    );
-    Ok(())
+    Ok(PlanEstimate {
+        cells: estimates,
+        groups: groups
+            .iter()
+            .map(|g| g.iter().map(|c| c.index).collect())
+            .collect(),
+        setup,
+        references,
+        how,
+        probe_seconds: probes.seconds,
+    })
 }
 
-/// Prints the plan.
-pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
-    let start = std::time::Instant::now();
-    let exp = Experiment::load(&args.experiment)?;
-    let quality = args.quality.quality();
-    if exp.tune.is_some() {
-        println!(
-            "{}: has a [tune] section; these are the contexts every configuration is rendered on, and `sweep tune {} --dry-run` shows the search",
-            exp.name,
-            args.experiment.display()
-        );
-    }
-    let size = exp.grid_size(quality)?;
-    if size > exp.max_cells && !args.yes {
-        println!(
-            "{} ({:?} quality): {size} cells, more than max_cells = {}; not expanded (pass --yes to list them; `sweep run` will ask for --yes too)",
-            exp.name, quality, exp.max_cells
-        );
-        return Ok(ExitCode::SUCCESS);
-    }
-    let (cells, hashes) = exp.plan_with_hashes(quality, true)?;
-    let plan_seconds = start.elapsed().as_secs_f64();
-    println!(
-        "{} ({:?} quality): {} cells",
-        exp.name,
-        quality,
-        cells.len()
-    );
-    let pool = args.reference_pool.clone().map(ReferencePool::new);
-    let costing = if args.no_pilot {
-        Costing::Model
-    } else {
-        Costing::Pilot(Pilots::default())
-    };
-    print_estimates(&exp, &cells, &hashes, plan_seconds, pool.as_ref(), costing)?;
-    if cells.len() > exp.max_cells {
-        println!(
-            "note: {} cells exceed the experiment's max_cells = {}; `sweep run` will ask for --yes",
-            cells.len(),
-            exp.max_cells
-        );
-    }
-    if args.slurm {
-        let out = crate::plan::default_output(&exp, quality);
-        let script = crate::backend::plan_submission(
-            &exp,
-            &cells,
-            &out,
-            &crate::backend::SlurmOptions::default(),
-            quality,
-            None,
-        )?;
-        println!("\n{}", script.describe());
-    }
-    Ok(ExitCode::SUCCESS)
+/// How pilot renders costed the plan, for the summary.
+fn pilot_sentence(p: &Pilots, modelled: usize, probes: &Probes) -> String {
+    format!(
+        "Measured: each march group and reference rendered at {side} pixels a side ({iterated} for progressive and beam cells) on this machine ({renders} pilot render(s), {secs:.1} s{model}), scaled to its size; {setup:.1} s of loading the volumes included",
+        side = pilot::PILOT_SIDE,
+        iterated = pilot::ITERATED_PILOT_SIDE,
+        renders = p.renders,
+        secs = p.seconds,
+        model = if modelled > 0 {
+            format!(
+                "; {modelled} group(s) whose scene could not be loaded from the model, calibrated on the foot at σt 80 and scaled by {}",
+                probes.summary()
+            )
+        } else {
+            String::new()
+        },
+        setup = p.setup_seconds,
+    )
 }
 
 #[cfg(test)]
