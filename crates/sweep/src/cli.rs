@@ -242,9 +242,20 @@ pub(crate) struct PlanArgs {
     /// Also print the sbatch lines a Slurm run would submit.
     #[arg(long)]
     pub(crate) slurm: bool,
-    /// List the cells of a grid larger than the experiment's `max_cells`.
+    /// After the summary, list every cell: index, address, estimated seconds, axis values.
+    #[arg(long)]
+    pub(crate) list: bool,
+    /// Plan a grid larger than the experiment's `max_cells` (as `sweep run --yes`).
     #[arg(long, short)]
     pub(crate) yes: bool,
+    /// March groups rendered at once, as `sweep run --jobs`: the wall time is estimated for
+    /// it.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) jobs: usize,
+    /// Worker threads per job, as `sweep run --threads` (default: all cores); the pilots
+    /// render on as many.
+    #[arg(long)]
+    pub(crate) threads: Option<usize>,
     /// Count references the pool (`sweep run --reference-pool`) already holds as done, and
     /// those it holds at fewer samples per pixel as refined from there.
     #[arg(long, value_name = "DIR")]

@@ -149,3 +149,101 @@ fn a_file_of_the_other_kind_is_named_with_the_verb_that_takes_it() {
         assert!(!err.contains("unknown field"), "{args:?}: {err}");
     }
 }
+
+fn quickstart() -> String {
+    concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../experiments/quickstart.toml"
+    )
+    .to_string()
+}
+
+/// stdout of a successful `sweep` call.
+fn stdout_of(args: &[&str]) -> String {
+    let out = sweep().args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// `sweep plan` leads with its summary (cells, groups, wall time at the given --jobs, the
+/// output folder) and lists the cells only when asked to; the quality is named as
+/// everywhere else (`default`, not `Default`).
+#[test]
+fn plan_prints_its_summary_first_and_the_cells_on_request() {
+    let exp = quickstart();
+    let text = stdout_of(&["plan", &exp, "--no-pilot"]);
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(
+        lines[0].contains("quickstart (`default` quality): 4 cells in 2 march group(s)")
+            && lines[0].contains("reports/quickstart"),
+        "{text}"
+    );
+    assert!(!text.contains("Default quality"), "{text}");
+    assert!(
+        text.contains("estimated wall time") && text.contains("at --jobs 1"),
+        "{text}"
+    );
+    assert!(
+        !lines.iter().any(|l| l.trim_start().starts_with("index")),
+        "cell rows without --list: {text}"
+    );
+    assert!(
+        text.contains("--list"),
+        "says how to list the cells: {text}"
+    );
+    let listed = stdout_of(&["plan", &exp, "--no-pilot", "--list", "--jobs", "3"]);
+    let lines: Vec<&str> = listed.lines().collect();
+    let summary = lines
+        .iter()
+        .position(|l| l.contains("estimated wall time") && l.contains("at --jobs 3"))
+        .expect(&listed);
+    let header = lines
+        .iter()
+        .position(|l| l.trim_start().starts_with("index"))
+        .expect(&listed);
+    assert!(summary < header, "summary before the rows: {listed}");
+    assert_eq!(lines.len() - header - 1, 4, "one row per cell: {listed}");
+    let quick = stdout_of(&["plan", &exp, "--no-pilot", "--quick"]);
+    assert!(
+        quick.contains("(`quick` quality)") && quick.contains("reports/quickstart-quick"),
+        "{quick}"
+    );
+}
+
+/// The time `sweep plan` reports is the whole of it, pilot renders included, and says how
+/// much of it the pilots took.
+#[test]
+fn plan_says_how_long_planning_took_with_its_pilots() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = format!(
+        "{}[camera]\nresolution = [24, 24]\n[integrator]\nvolume_photons = 500\nnused = 20\nstepsize = 0.02\n",
+        volphot::test_util::SMALL_SCENE
+    );
+    std::fs::write(tmp.path().join("s.toml"), scene).unwrap();
+    let exp = tmp.path().join("e.toml");
+    std::fs::write(
+        &exp,
+        "name = \"tiny\"\nscene = \"s.toml\"\n[axes]\n\"integrator.nused\" = [10, 20]\n",
+    )
+    .unwrap();
+    let text = stdout_of(&["plan", exp.to_str().unwrap()]);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("planned in "))
+        .unwrap_or_else(|| panic!("no `planned in` line: {text}"));
+    let numbers: Vec<f64> = line
+        .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    assert!(
+        line.contains("of which") && line.contains("pilot render"),
+        "{line}"
+    );
+    // Seconds in all, seconds of pilots, pilot renders (one march group of two cells).
+    let (total, pilots, renders) = (numbers[0], numbers[1], numbers[2]);
+    assert!(total >= pilots && renders == 1.0, "{line}");
+}

@@ -389,6 +389,10 @@ pub(crate) struct PlanEstimate {
     pub(crate) references: ReferenceEstimate,
     /// How the costs were found, one sentence for the summary.
     pub(crate) how: String,
+    /// Wall-clock seconds the pilot renders took (their volumes' loading included).
+    pub(crate) pilot_seconds: f64,
+    /// Pilot renders made.
+    pub(crate) pilot_renders: usize,
     /// Seconds spent probing eye-march lengths for the model.
     pub(crate) probe_seconds: f64,
 }
@@ -402,6 +406,23 @@ impl PlanEstimate {
     /// Seconds of everything: cells and references.
     pub(crate) fn total(&self) -> f64 {
         self.cells_total() + self.references.seconds
+    }
+
+    /// Wall-clock seconds of a run that renders `side_by_side` march groups at once without
+    /// sharing cores: the references first, one at a time (as a run renders them), then
+    /// the groups, each taken by the first free job in plan order; the volumes' loading
+    /// is paid once.
+    pub(crate) fn wall_seconds(&self, side_by_side: usize) -> f64 {
+        let mut jobs = vec![0.0f64; side_by_side.max(1)];
+        for group in &self.groups {
+            let seconds: f64 = group.iter().map(|&i| self.cells[i]).sum();
+            let free = jobs
+                .iter_mut()
+                .min_by(|a, b| a.total_cmp(b))
+                .expect("at least one job");
+            *free += seconds;
+        }
+        self.references.seconds + self.setup + jobs.into_iter().fold(0.0, f64::max)
     }
 }
 
@@ -421,14 +442,21 @@ pub(crate) fn estimate(
     let groups = march_groups(exp, cells);
     let (estimates, modelled) = cell_estimates(&groups, cells.len(), &mut costing, &mut probes);
     let references = ReferenceEstimate::of(exp, cells, pool, &mut costing)?;
-    let (setup, how) = match &costing {
-        Costing::Pilot(p) => (p.setup_seconds, pilot_sentence(p, modelled, &probes)),
+    let (setup, how, pilot_seconds, pilot_renders) = match &costing {
+        Costing::Pilot(p) => (
+            p.setup_seconds,
+            pilot_sentence(p, modelled, &probes),
+            p.seconds,
+            p.renders,
+        ),
         Costing::Model => (
             0.0,
             format!(
                 "Rough: calibrated on the foot at σt 80 and scaled by {} (pilot renders measure it: drop --no-pilot)",
                 probes.summary()
             ),
+            0.0,
+            0,
         ),
     };
     Ok(PlanEstimate {
@@ -440,6 +468,8 @@ pub(crate) fn estimate(
         setup,
         references,
         how,
+        pilot_seconds,
+        pilot_renders,
         probe_seconds: probes.seconds,
     })
 }
@@ -447,14 +477,12 @@ pub(crate) fn estimate(
 /// How pilot renders costed the plan, for the summary.
 fn pilot_sentence(p: &Pilots, modelled: usize, probes: &Probes) -> String {
     format!(
-        "Measured: each march group and reference rendered at {side} pixels a side ({iterated} for progressive and beam cells) on this machine ({renders} pilot render(s), {secs:.1} s{model}), scaled to its size; {setup:.1} s of loading the volumes included",
+        "Measured: each march group and reference rendered at {side} pixels a side ({iterated} for progressive and beam cells) on this machine{model}, scaled to its size; {setup:.1} s of loading the volumes included",
         side = pilot::PILOT_SIDE,
         iterated = pilot::ITERATED_PILOT_SIDE,
-        renders = p.renders,
-        secs = p.seconds,
         model = if modelled > 0 {
             format!(
-                "; {modelled} group(s) whose scene could not be loaded from the model, calibrated on the foot at σt 80 and scaled by {}",
+                " ({modelled} group(s) whose scene could not be loaded from the model, calibrated on the foot at σt 80 and scaled by {})",
                 probes.summary()
             )
         } else {
@@ -602,5 +630,28 @@ mod tests {
         assert!(beam_cost > points.march && beam_cost < frame(&progressive));
         beams.integrator.nused = 300;
         assert_eq!(frame(&beams), beam_cost);
+    }
+
+    #[test]
+    fn wall_time_runs_groups_side_by_side_after_the_references() {
+        let estimate = PlanEstimate {
+            cells: vec![2.0, 1.0, 2.0, 2.0],
+            groups: vec![vec![0, 1], vec![2], vec![3]],
+            setup: 0.5,
+            references: ReferenceEstimate {
+                seconds: 10.0,
+                count: 1,
+                ..Default::default()
+            },
+            how: String::new(),
+            pilot_seconds: 0.0,
+            pilot_renders: 0,
+            probe_seconds: 0.0,
+        };
+        assert_eq!(estimate.total(), 17.5);
+        assert_eq!(estimate.wall_seconds(1), 17.5, "one job: the total");
+        // Groups of 3, 2 and 2 s on two jobs: 3 s on one, 2 + 2 s on the other.
+        assert_eq!(estimate.wall_seconds(2), 10.5 + 4.0);
+        assert_eq!(estimate.wall_seconds(8), 10.5 + 3.0, "the longest group");
     }
 }
