@@ -311,7 +311,8 @@ pub(crate) struct RunArgs {
     pub(crate) experiment: PathBuf,
     #[command(flatten)]
     pub(crate) quality: QualityArgs,
-    /// Output folder (default: `reports/<experiment name>/`).
+    /// Output folder (default: `reports/<name>/`, or `reports/<name>-quick/` with --quick and
+    /// `reports/<name>-paper/` with --paper; `<name>` is the experiment's).
     #[arg(short, long)]
     pub(crate) output: Option<PathBuf>,
     /// Render only these cells, e.g. `3,7-9` (for outside schedulers).
@@ -320,7 +321,7 @@ pub(crate) struct RunArgs {
     /// Render only shard i of n (0-based), e.g. `2/8`.
     #[arg(long)]
     pub(crate) shard: Option<String>,
-    /// Cells rendered at once (each uses all threads; default 1).
+    /// March groups rendered at once (each on all threads, or on `--threads`).
     #[arg(long, default_value_t = 1)]
     pub(crate) jobs: usize,
     /// Worker threads (default: all cores).
@@ -370,7 +371,7 @@ pub(crate) struct TuneArgs {
     /// budget allows, and render nothing.
     #[arg(long)]
     pub(crate) dry_run: bool,
-    /// Cells rendered at once (local backend; each uses all threads; default 1).
+    /// Cells rendered at once (local backend; each on all threads, or on `--threads`).
     #[arg(long, default_value_t = 1)]
     pub(crate) jobs: usize,
     /// Worker threads (default: all cores).
@@ -444,7 +445,7 @@ pub(crate) struct BenchArgs {
     #[arg(long)]
     pub(crate) python: Option<PathBuf>,
     /// Samples per pixel of the peer comparison's renders (comma-separated).
-    #[arg(long, value_delimiter = ',', default_values_t = [4u32, 16, 64])]
+    #[arg(long, value_delimiter = ',', default_value = "4,16,64")]
     pub(crate) peer_spp: Vec<u32>,
     /// Seeds per setting of the peer comparison (the spread of their means is the noise).
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(2..=64))]

@@ -247,3 +247,60 @@ fn plan_says_how_long_planning_took_with_its_pilots() {
     let (total, pilots, renders) = (numbers[0], numbers[1], numbers[2]);
     assert!(total >= pilots && renders == 1.0, "{line}");
 }
+
+/// The lines of `--help` that describe one option (its name line and the text under it).
+fn option_block<'a>(help: &'a str, option: &str) -> String {
+    let mut block = Vec::new();
+    let mut inside = false;
+    for line in help.lines() {
+        let trimmed = line.trim_start();
+        if trimmed.starts_with('-') {
+            inside = trimmed.contains(option);
+        }
+        if inside {
+            block.push(line);
+        }
+    }
+    block.join("\n")
+}
+
+/// Help texts name the folders `--paper` and `--quick` write to, show comma-separated
+/// defaults as they are typed, and state each default once; `sweep render`'s default
+/// output folder is ignored by git.
+#[test]
+fn help_texts_say_where_output_goes_and_each_default_once() {
+    let run = stdout_of(&["run", "--help"]);
+    let output = option_block(&run, "--output");
+    assert!(
+        output.contains("<name>-paper") && output.contains("<name>-quick"),
+        "{output}"
+    );
+    for verb in ["run", "tune"] {
+        let help = stdout_of(&[verb, "--help"]);
+        let jobs = option_block(&help, "--jobs");
+        assert_eq!(
+            jobs.to_lowercase().matches("default").count(),
+            1,
+            "{verb} --jobs: {jobs}"
+        );
+    }
+    let bench = stdout_of(&["bench", "--help"]);
+    let spp = option_block(&bench, "--peer-spp");
+    assert!(spp.contains("[default: 4,16,64]"), "{spp}");
+    let render = stdout_of(&["render", "--help"]);
+    let out = option_block(&render, "--output");
+    let default = out
+        .split("[default: ")
+        .nth(1)
+        .and_then(|s| s.split(']').next())
+        .expect(&out);
+    let gitignore =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../.gitignore")).unwrap();
+    let folder = default.trim_end_matches('/');
+    assert!(
+        gitignore
+            .lines()
+            .any(|l| l == format!("/{folder}/") || l == format!("/{folder}")),
+        "`sweep render`'s default output `{default}` is not in .gitignore"
+    );
+}
