@@ -427,6 +427,10 @@ pub(crate) struct BenchArgs {
     /// Run only these configurations (comma-separated; default: all).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub(crate) only: Vec<BenchConfig>,
+    /// Renders of each configuration: the table shows the render time's mean ± σ and min,
+    /// the JSON every run's times.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub(crate) runs: u32,
     /// Passes of the path tracer: in the efficiency comparison (default 16) and for the
     /// converged reference of `--peer` (default 1024).
     #[arg(long, value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
@@ -603,6 +607,7 @@ impl BenchArgs {
             threads: self.threads,
             scene: self.scene.clone(),
             only: self.only.iter().map(|c| c.config()).collect(),
+            runs: self.runs,
             reference_passes: self.reference_passes,
             python: self.python.clone(),
             peer_spp: self.peer_spp.clone(),

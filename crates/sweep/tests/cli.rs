@@ -304,3 +304,59 @@ fn help_texts_say_where_output_goes_and_each_default_once() {
         "`sweep render`'s default output `{default}` is not in .gitignore"
     );
 }
+
+/// `sweep bench --runs N` renders each configuration N times: mean ± σ and min in the
+/// table, every run's times in the JSON; one run by default.
+#[test]
+fn bench_repeats_each_configuration_and_keeps_every_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let json = tmp.path().join("bench.json");
+    let common = [
+        "bench",
+        "--quick",
+        "--resolution",
+        "16x16",
+        "--threads",
+        "1",
+        "--json",
+        json.to_str().unwrap(),
+    ];
+    let mut args = common.to_vec();
+    args.extend(["--only", "marched,exact", "--runs", "3"]);
+    let text = stdout_of(&args);
+    assert!(text.contains("mean ± σ") && text.contains("min"), "{text}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let measurements = report["measurements"].as_array().unwrap();
+    assert_eq!(measurements.len(), 2);
+    for m in measurements {
+        let runs: Vec<f64> = m["runs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["render_s"].as_f64().unwrap())
+            .collect();
+        assert_eq!(runs.len(), 3, "{m}");
+        assert!(runs.iter().all(|t| *t > 0.0), "{runs:?}");
+        let mean = runs.iter().sum::<f64>() / 3.0;
+        let sd = (runs.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / 2.0).sqrt();
+        let min = runs.iter().cloned().fold(f64::INFINITY, f64::min);
+        let close = |a: &serde_json::Value, b: f64| (a.as_f64().unwrap() - b).abs() < 1e-9;
+        assert!(close(&m["render"]["mean"], mean), "{m}");
+        assert!(close(&m["render"]["stddev"], sd), "{m}");
+        assert!(close(&m["render"]["min"], min), "{m}");
+        let row = text
+            .lines()
+            .find(|l| l.starts_with(m["configuration"].as_str().unwrap()))
+            .unwrap();
+        assert!(row.contains('±'), "{row}");
+    }
+    let mut args = common.to_vec();
+    args.extend(["--only", "marched"]);
+    stdout_of(&args);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let m = &report["measurements"][0];
+    assert_eq!(m["runs"].as_array().unwrap().len(), 1, "{m}");
+    assert!(m["render"]["stddev"].is_null(), "no σ of one run: {m}");
+}

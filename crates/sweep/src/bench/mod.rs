@@ -67,6 +67,8 @@ pub(crate) struct BenchOptions {
     pub(crate) scene: Option<PathBuf>,
     /// The configurations to run (all when empty).
     pub(crate) only: Vec<BenchConfig>,
+    /// Renders of each configuration (at least 1).
+    pub(crate) runs: u32,
     /// Passes of the path tracer.
     pub(crate) reference_passes: Option<u32>,
     /// Python with Mitsuba 3 installed.
@@ -94,7 +96,40 @@ const ALL: [BenchConfig; 7] = [
     BenchConfig::Efficiency,
 ];
 
-/// One configuration's run.
+/// The times of one render of a configuration.
+#[derive(Debug, Clone, Copy, Serialize)]
+struct RunTimes {
+    photon_tracing_s: f64,
+    render_s: f64,
+    cpu_s: Option<f64>,
+}
+
+/// Mean, standard deviation (of a sample: `n − 1`; none for one run), min and max of a
+/// configuration's times over its runs, as hyperfine reports them.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+struct Spread {
+    mean: f64,
+    stddev: Option<f64>,
+    min: f64,
+    max: f64,
+}
+
+impl Spread {
+    fn of(values: &[f64]) -> Spread {
+        let n = values.len().max(1) as f64;
+        let mean = values.iter().sum::<f64>() / n;
+        let stddev = (values.len() > 1)
+            .then(|| (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt());
+        Spread {
+            mean,
+            stddev,
+            min: values.iter().copied().fold(f64::INFINITY, f64::min),
+            max: values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        }
+    }
+}
+
+/// One configuration's runs.
 #[derive(Debug, Serialize)]
 struct Measurement {
     configuration: String,
@@ -102,9 +137,13 @@ struct Measurement {
     resolution: [u32; 2],
     threads: usize,
     photons_stored: u64,
+    /// Means over the runs.
     photon_tracing_s: f64,
     render_s: f64,
     cpu_s: Option<f64>,
+    /// The render time over the runs, and every run's times.
+    render: Spread,
+    runs: Vec<RunTimes>,
     samples: u64,
     shadow_queries: u64,
     gathers: u64,
@@ -240,7 +279,7 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
         } else {
             &pool
         };
-        let m = pool.install(|| measure(config_name(config), &s, &scene_path))?;
+        let m = pool.install(|| measure(config_name(config), &s, &scene_path, args.runs))?;
         report.measurements.push(m);
     }
     compare_with_marched(&mut report.measurements);
@@ -258,30 +297,49 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Renders `scene` once with the photon integrator, timed in wall and CPU seconds.
-fn measure(name: &str, scene: &Scene, scene_path: &Path) -> Result<Measurement> {
+/// Renders `scene` `runs` times with the photon integrator, each timed in wall and CPU
+/// seconds (the film is the last run's: every run renders the same image).
+fn measure(name: &str, scene: &Scene, scene_path: &Path, runs: u32) -> Result<Measurement> {
     let [w, h] = scene.params().camera.resolution;
     eprintln!(
-        "bench {name}: {} at {w}×{h} on {} thread(s)…",
+        "bench {name}: {} at {w}×{h} on {} thread(s), {runs} run(s)…",
         scene_path.display(),
         rayon::current_num_threads()
     );
-    let cpu_start = process_cpu_seconds();
-    let map = build_photon_map(scene, &Control::none())?;
-    let out = volphot::render_march(scene, &[&map], &[], &Control::none())?;
-    let cpu_s = process_cpu_seconds()
-        .zip(cpu_start)
-        .map(|(end, start)| end - start);
+    let mut times = Vec::with_capacity(runs as usize);
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let cpu_start = process_cpu_seconds();
+        let map = build_photon_map(scene, &Control::none())?;
+        let out = volphot::render_march(scene, &[&map], &[], &Control::none())?;
+        let cpu_s = process_cpu_seconds()
+            .zip(cpu_start)
+            .map(|(end, start)| end - start);
+        times.push(RunTimes {
+            photon_tracing_s: map.stats().seconds,
+            render_s: out.stats.seconds,
+            cpu_s,
+        });
+        last = Some((map, out));
+    }
+    let (map, out) = last.expect("at least one run");
     let film = out.films.into_iter().next().expect("one film");
+    let mean = |f: fn(&RunTimes) -> Option<f64>| {
+        let values: Option<Vec<f64>> = times.iter().map(f).collect();
+        values.map(|v| Spread::of(&v).mean)
+    };
+    let render = Spread::of(&times.iter().map(|t| t.render_s).collect::<Vec<_>>());
     Ok(Measurement {
         configuration: name.into(),
         scene: scene_path.display().to_string(),
         resolution: [w, h],
         threads: rayon::current_num_threads(),
         photons_stored: map.stats().stored,
-        photon_tracing_s: map.stats().seconds,
-        render_s: out.stats.seconds,
-        cpu_s,
+        photon_tracing_s: mean(|t| Some(t.photon_tracing_s)).unwrap_or_default(),
+        render_s: render.mean,
+        cpu_s: mean(|t| t.cpu_s),
+        render,
+        runs: times,
         samples: out.stats.samples,
         shadow_queries: out.stats.shadow_queries,
         gathers: out.stats.gathers,
@@ -339,10 +397,11 @@ fn print_measurements(measurements: &[Measurement]) {
         None => format!("{:>18}", "—"),
     };
     println!(
-        "{:<13} {:>3} {:>9} {:>9} {:>10} {:>10} | {:^18} | {:^18}",
+        "{:<13} {:>3} {:>17} {:>7} {:>9} {:>10} {:>10} | {:^18} | {:^18}",
         "config",
         "thr",
-        "render s",
+        "render s mean ± σ",
+        "min",
         "CPU s",
         "samples/s",
         "shadow/smp",
@@ -350,11 +409,16 @@ fn print_measurements(measurements: &[Measurement]) {
         "multiple: bias, p99"
     );
     for m in measurements {
+        let sd = m
+            .render
+            .stddev
+            .map_or(format!("{:>6}", "—"), |sd| format!("{sd:>6.2}"));
         println!(
-            "{:<13} {:>3} {:>9.2} {:>9.2} {:>10.3e} {:>10.2} | {} | {}",
+            "{:<13} {:>3} {:>8.2} ± {sd} {:>7.2} {:>9.2} {:>10.3e} {:>10.2} | {} | {}",
             m.configuration,
             m.threads,
-            m.render_s,
+            m.render.mean,
+            m.render.min,
             m.cpu_s.unwrap_or(f64::NAN),
             m.samples as f64 / m.render_s.max(1e-9),
             m.shadow_queries as f64 / m.samples.max(1) as f64,
