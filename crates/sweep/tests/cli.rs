@@ -249,7 +249,7 @@ fn plan_says_how_long_planning_took_with_its_pilots() {
 }
 
 /// The lines of `--help` that describe one option (its name line and the text under it).
-fn option_block<'a>(help: &'a str, option: &str) -> String {
+fn option_block(help: &str, option: &str) -> String {
     let mut block = Vec::new();
     let mut inside = false;
     for line in help.lines() {
