@@ -56,6 +56,10 @@ impl Report<'_> {
     pub(crate) fn markdown(&self) -> String {
         let mut s = String::new();
         self.header(&mut s);
+        // A tune's cells are scattered configurations, not a grid to read along an axis.
+        if self.experiment.tune.is_none() {
+            s.push_str(&super::summary::what_changed(&self.plan.axes, self.cells));
+        }
         self.grid(&mut s);
         self.provenance(&mut s);
         self.caches(&mut s);

@@ -12,6 +12,7 @@ mod html;
 mod markdown;
 mod plots;
 mod sheets;
+mod summary;
 mod table;
 
 use std::path::PathBuf;
