@@ -221,3 +221,48 @@ fn the_report_says_what_each_axis_changed_and_by_how_much() {
     }
     bullet("sigma.t");
 }
+
+/// Every difference image the report writes is linked from `report.md`, with a caption
+/// (so `report.html` shows it too): the amplified and signed differences of each cell.
+#[test]
+fn every_difference_image_is_linked_from_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_experiment(
+        dir.path(),
+        "diffs",
+        "phantom-engine.toml",
+        r#"[set]
+"volume.phantom.resolution" = [16, 16, 16]
+"camera.resolution" = [16, 16]
+"integrator.volume_photons" = 2000
+"integrator.stepsize" = 0.02
+[axes]
+"integrator.nused" = [10, 40]
+[[compare]]
+kind = "layers"
+"#,
+    );
+    let out = dir.path().join("out");
+    run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let section = md
+        .split("## Difference images")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no `Difference images` section:\n{md}"));
+    let mut written = 0;
+    for entry in std::fs::read_dir(out.join("figures/diff"))
+        .unwrap()
+        .flatten()
+    {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let link = format!("](figures/diff/{name})");
+        let line = section
+            .lines()
+            .find(|l| l.contains(&link))
+            .unwrap_or_else(|| panic!("{name} is linked from nowhere:\n{section}"));
+        let caption = line.split(&link).next().unwrap();
+        assert!(caption.len() > 8, "{name} has no caption: {line}");
+        written += 1;
+    }
+    assert_eq!(written, 6, "compare, amplified and signed for 2 cells");
+}
