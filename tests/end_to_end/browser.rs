@@ -174,6 +174,8 @@ struct PageCheck {
     missing_anchors: Vec<String>,
     width: f64,
     height: f64,
+    /// The explorer's A/B labels' background colour (computed).
+    tag_background: String,
 }
 
 const CHECK_PAGE: &str = r#"JSON.stringify((() => {
@@ -192,6 +194,7 @@ const CHECK_PAGE: &str = r#"JSON.stringify((() => {
     missing_anchors: missing,
     width: document.documentElement.scrollWidth,
     height: document.documentElement.scrollHeight,
+    tag_background: getComputedStyle(document.getElementById('ex-tag-0')).backgroundColor,
   };
 })())"#;
 
@@ -238,6 +241,27 @@ fn html_report_renders_in_chromium() {
         page.missing_anchors
     );
     assert!(!page.links.is_empty(), "the report links its tables");
+    // At a 1280 × 900 window nothing widens the page: wide tables scroll in their boxes.
+    assert!(
+        page.width <= 1280.0,
+        "the page is {} px wide in a 1280 px window",
+        page.width
+    );
+    // The A/B labels stay readable on bright images: a dark backdrop of their own.
+    let rgba: Vec<f64> = page
+        .tag_background
+        .trim_start_matches("rgba(")
+        .trim_start_matches("rgb(")
+        .trim_end_matches(')')
+        .split(',')
+        .filter_map(|v| v.trim().parse().ok())
+        .collect();
+    let alpha = rgba.get(3).copied().unwrap_or(1.0);
+    assert!(
+        rgba.len() >= 3 && rgba[..3].iter().all(|c| *c < 80.0) && alpha >= 0.5,
+        "the explorer's labels have no dark backdrop: {}",
+        page.tag_background
+    );
     for link in &page.links {
         let path = link
             .strip_prefix("file://")

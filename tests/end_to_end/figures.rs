@@ -91,3 +91,178 @@ fn ms_share_plot_shows_the_multiple_cells_and_their_seed_spread() {
         }
     }
 }
+
+/// The mean of `column` over the cells (seeds) with these axis values.
+fn mean_of(cells: &[HashMap<String, String>], at: &[(&str, &str)], column: &str) -> f64 {
+    let values: Vec<f64> = cells
+        .iter()
+        .filter(|c| {
+            at.iter()
+                .all(|(k, v)| number(c, k) == v.parse::<f64>().unwrap())
+        })
+        .map(|c| number(c, column))
+        .collect();
+    assert!(!values.is_empty(), "no cells at {at:?}");
+    values.iter().sum::<f64>() / values.len() as f64
+}
+
+/// The report opens with what each axis changed and by how much: one sentence per main
+/// metric, each context (the other axis's values) apart, repeated seeds by their mean; the
+/// direction and the percentage are those of the cells' own numbers in `cells.csv`.
+#[test]
+fn the_report_says_what_each_axis_changed_and_by_how_much() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_experiment(
+        dir.path(),
+        "changes",
+        "phantom-engine.toml",
+        r#"[set]
+"volume.phantom.resolution" = [24, 24, 24]
+"camera.resolution" = [20, 20]
+"integrator.volume_photons" = 3000
+"integrator.stepsize" = 0.01
+[axes]
+"sigma.t" = [10, 80]
+"integrator.nused" = [10, 80]
+"integrator.seed" = [1, 2]
+"#,
+    );
+    let out = dir.path().join("out");
+    run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
+    let cells = rows(&out.join("cells.csv"));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let section = md
+        .split("## What changed")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .unwrap_or_else(|| panic!("no `What changed` section:\n{md}"));
+    assert!(
+        md.find("## What changed") < md.find("## Grid"),
+        "the section is near the top"
+    );
+    let bullet = |axis: &str| {
+        section
+            .lines()
+            .find(|l| l.starts_with(&format!("- `{axis}`")))
+            .unwrap_or_else(|| panic!("no sentence on {axis}:\n{section}"))
+            .to_string()
+    };
+    assert!(
+        !section.contains("`integrator.seed`"),
+        "seeds are not an axis to compare"
+    );
+    let nused = bullet("integrator.nused");
+    assert!(
+        nused.starts_with("- `integrator.nused` 10 → 80 "),
+        "{nused}"
+    );
+    let sentences: Vec<&str> = nused
+        .trim_start_matches("- ")
+        .split(". ")
+        .map(|s| s.trim_end_matches('.'))
+        .collect();
+    assert!((1..=2).contains(&sentences.len()), "{nused}");
+    for sentence in sentences {
+        let (verb, rest) = ["lowers", "raises", "changes", "leaves"]
+            .iter()
+            .find_map(|v| {
+                sentence
+                    .split_once(&format!(" {v} `"))
+                    .map(|(_, r)| (*v, r))
+            })
+            .unwrap_or_else(|| panic!("no verb in `{sentence}`"));
+        let (metric, rest) = rest.split_once('`').unwrap();
+        let column = cells[0]
+            .keys()
+            .find(|k| k.starts_with(&format!("{metric} [")))
+            .unwrap_or_else(|| panic!("{metric} is not a column"))
+            .clone();
+        let list = rest
+            .split_once(" by ")
+            .or_else(|| rest.split_once(" within "))
+            .unwrap()
+            .1;
+        let items: Vec<&str> = list.split(", ").collect();
+        assert_eq!(items.len(), 2, "one number per σt: `{sentence}`");
+        for item in items {
+            let (number_text, context) = item
+                .split_once(" % at σt(d_min) ")
+                .unwrap_or_else(|| panic!("`{item}` of `{sentence}` is not `N % at σt(d_min) V`"));
+            let t = context.trim();
+            let before = mean_of(
+                &cells,
+                &[("sigma.t", t), ("integrator.nused", "10")],
+                &column,
+            );
+            let after = mean_of(
+                &cells,
+                &[("sigma.t", t), ("integrator.nused", "80")],
+                &column,
+            );
+            let change = 100.0 * (after - before) / before.abs();
+            let stated: f64 = number_text
+                .replace('−', "-")
+                .trim_start_matches('+')
+                .parse()
+                .unwrap();
+            match verb {
+                "lowers" => assert!(
+                    change < 0.0 && (stated + change).abs() <= 0.6,
+                    "{sentence}: {change}"
+                ),
+                "raises" => assert!(
+                    change > 0.0 && (stated - change).abs() <= 0.6,
+                    "{sentence}: {change}"
+                ),
+                "changes" => assert!((stated - change).abs() <= 0.6, "{sentence}: {change}"),
+                _ => assert!(change.abs() < 0.6, "{sentence}: {change}"),
+            }
+        }
+    }
+    bullet("sigma.t");
+}
+
+/// Every difference image the report writes is linked from `report.md`, with a caption
+/// (so `report.html` shows it too): the amplified and signed differences of each cell.
+#[test]
+fn every_difference_image_is_linked_from_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_experiment(
+        dir.path(),
+        "diffs",
+        "phantom-engine.toml",
+        r#"[set]
+"volume.phantom.resolution" = [16, 16, 16]
+"camera.resolution" = [16, 16]
+"integrator.volume_photons" = 2000
+"integrator.stepsize" = 0.02
+[axes]
+"integrator.nused" = [10, 40]
+[[compare]]
+kind = "layers"
+"#,
+    );
+    let out = dir.path().join("out");
+    run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let section = md
+        .split("## Difference images")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no `Difference images` section:\n{md}"));
+    let mut written = 0;
+    for entry in std::fs::read_dir(out.join("figures/diff"))
+        .unwrap()
+        .flatten()
+    {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let link = format!("](figures/diff/{name})");
+        let line = section
+            .lines()
+            .find(|l| l.contains(&link))
+            .unwrap_or_else(|| panic!("{name} is linked from nowhere:\n{section}"));
+        let caption = line.split(&link).next().unwrap();
+        assert!(caption.len() > 8, "{name} has no caption: {line}");
+        written += 1;
+    }
+    assert_eq!(written, 6, "compare, amplified and signed for 2 cells");
+}

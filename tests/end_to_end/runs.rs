@@ -365,6 +365,114 @@ fn render_writes_layers_png_pfm_and_sidecar() {
 /// A cache is an approximation: a cell rendered with one records the error the cache was
 /// measured to have, and the report lists it; cells without a cache record none. Thinning
 /// (on by default) is measured in every cell, and the report gives its largest error.
+/// A tiny engine phantom scene: σt(d_min) `t`, `photons` traced, `nused` per estimate.
+fn tiny_scene(dir: &Path, name: &str, t: f64, photons: u32, nused: u32) -> PathBuf {
+    let path = dir.join(format!("{name}.toml"));
+    let text = format!(
+        r#"[volume]
+phantom = {{ name = "engine", resolution = [16, 16, 16] }}
+[sigma]
+mapping = "thesis"
+t = {t}
+albedo = 0.8
+[camera]
+eye = [2.0, -1.4, 1.6]
+look_at = [0.5, 0.5, 0.5]
+up = [0, 0, 1]
+fov = 30
+resolution = [16, 16]
+[three_point]
+key_intensity = 40
+[integrator]
+volume_photons = {photons}
+nused = {nused}
+stepsize = 0.01
+"#
+    );
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// `sweep render` of `scene`: its stderr and its sidecar's `warnings` (as text).
+fn render_warnings(scene: &Path, out: &Path) -> (String, Vec<String>) {
+    let o = run_ok(
+        sweep()
+            .arg("render")
+            .arg(scene)
+            .arg("-o")
+            .arg(out)
+            .arg("-q"),
+    );
+    let stem = scene.file_stem().unwrap().to_string_lossy().into_owned();
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join(format!("{stem}.json"))).unwrap())
+            .unwrap();
+    let warnings = json["warnings"]
+        .as_array()
+        .map(|w| w.iter().map(|v| v.as_str().unwrap().to_string()).collect())
+        .unwrap_or_default();
+    (String::from_utf8_lossy(&o.stderr).into_owned(), warnings)
+}
+
+/// A render outside what its own settings can resolve says so on stderr and in its record:
+/// fewer stored photons than 10 × nused (each estimate then gathers a large part of the
+/// map), or a nominal mean free path longer than the volume (nearly transparent). A render
+/// within them says nothing.
+#[test]
+fn renders_outside_what_their_settings_resolve_warn() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let few = tiny_scene(dir, "few", 80.0, 300, 300);
+    let (err, warnings) = render_warnings(&few, &dir.join("few"));
+    assert!(
+        err.contains("warning") && err.contains("nused 300") && err.contains("photons"),
+        "{err}"
+    );
+    assert!(
+        warnings.len() == 1 && warnings[0].contains("nused 300"),
+        "{warnings:?}"
+    );
+    let thin = tiny_scene(dir, "thin", 0.2, 20000, 20);
+    let (err, warnings) = render_warnings(&thin, &dir.join("thin"));
+    assert!(
+        err.contains("warning") && err.contains("mean free path") && err.contains("500"),
+        "{err}"
+    );
+    assert!(
+        warnings.iter().any(|w| w.contains("mean free path")),
+        "{warnings:?}"
+    );
+    let fine = tiny_scene(dir, "fine", 80.0, 20000, 20);
+    let (err, warnings) = render_warnings(&fine, &dir.join("fine"));
+    assert!(!err.contains("warning"), "{err}");
+    assert!(warnings.is_empty(), "{warnings:?}");
+    // A cell of a run records its warnings and prints them.
+    let exp = dir.join("e.toml");
+    std::fs::write(
+        &exp,
+        "name = \"warned\"\nscene = \"few.toml\"\n[axes]\n\"integrator.nused\" = [10, 300]\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("warning: cell 1") && err.contains("nused 300") && !err.contains("cell 0"),
+        "{err}"
+    );
+    let cells: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(out.join("cells.json")).unwrap()).unwrap();
+    for (i, cell) in cells.iter().enumerate() {
+        let hash = cell["hash"].as_str().unwrap();
+        let record: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join("cells").join(hash).join("cell.json")).unwrap(),
+        )
+        .unwrap();
+        let warned = record["warnings"].as_array().is_some_and(|w| !w.is_empty());
+        assert_eq!(warned, i == 1, "cell {i}: {record}");
+    }
+}
+
 #[test]
 fn cached_cells_record_and_report_their_measured_error() {
     let tmp = tempfile::tempdir().unwrap();

@@ -62,6 +62,7 @@ mod math;
 mod medium;
 mod photon;
 mod render;
+mod render_warnings;
 mod scene;
 mod util;
 mod volume;
@@ -96,6 +97,9 @@ pub use photon::{
 pub use render::{
     Provenance, RenderOutput, RenderRecord, SharedFilm, SharedRender, Timings, build_photon_map,
     march_key, photon_map_key, record, render, render_shared, shared_progress_units,
+};
+pub use render_warnings::{
+    PHOTONS_PER_NUSED, RenderWarning, TRANSPARENT_FREE_PATH_PERCENT, render_warnings,
 };
 pub use scene::{
     BoxParams, Camera, CameraParams, DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW,

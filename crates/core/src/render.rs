@@ -98,6 +98,9 @@ pub struct RenderRecord {
     pub peak_memory_bytes: Option<u64>,
     /// Worker threads used.
     pub threads: usize,
+    /// What the render's settings cannot resolve ([`crate::render_warnings`]), as sentences.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 /// A finished render.
@@ -169,6 +172,10 @@ pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
     let mut record = record(scene, photons, march, reference_spp, timings);
     record.cache_error = cache_error;
     record.progressive = progressive;
+    record.warnings = crate::render_warnings(s, scene.medium().report(), record.photons.as_ref())
+        .iter()
+        .map(ToString::to_string)
+        .collect();
     Ok(RenderOutput { film, record })
 }
 
@@ -191,6 +198,7 @@ pub fn record(
         timings,
         peak_memory_bytes: peak_memory_bytes(),
         threads: rayon::current_num_threads(),
+        warnings: Vec::new(),
     }
 }
 

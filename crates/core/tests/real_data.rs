@@ -205,3 +205,61 @@ fn header_formats_read_the_real_files_voxel_for_voxel() {
         }
     }
 }
+
+/// The threshold the `head16` registry note advises, as a number (`… use ~N …`).
+fn advised_head16_threshold() -> f64 {
+    let note = volphot::find_dataset("head16").unwrap().note;
+    note.split("use ~")
+        .nth(1)
+        .and_then(|s| s.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("the head16 note advises no `use ~N`: {note}"))
+}
+
+/// The `threshold` of the `head16` scene preset.
+fn preset_head16_threshold() -> f64 {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../experiments/scenes/head16.toml"
+    );
+    let text = std::fs::read_to_string(path).unwrap();
+    text.lines()
+        .find_map(|l| l.trim().strip_prefix("threshold = "))
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or_else(|| panic!("{path} has no `threshold = N` line"))
+}
+
+/// The dataset registry's advice for the 16-bit head and its scene preset give one threshold,
+/// and on the data it keeps about the share of voxels the 8-bit `head` preset keeps (its
+/// transfer function zeroes the MRI background below 0.25 of the 8-bit range).
+#[test]
+fn head16_threshold_advice_agrees_with_its_preset_and_the_data() {
+    let advised = advised_head16_threshold();
+    assert_eq!(
+        advised,
+        preset_head16_threshold(),
+        "the registry note and experiments/scenes/head16.toml disagree"
+    );
+    if !data_available() {
+        return;
+    }
+    let search = common::search_path();
+    let share_above = |name: &str, raw_threshold: f64| {
+        let v = load_dataset(name, &search, &DatasetOverrides::default()).unwrap();
+        let n = v.normalization();
+        let values = v.grid().values();
+        let above = values
+            .iter()
+            .filter(|&&d| d as f64 * (n.raw_hi - n.raw_lo) + n.raw_lo > raw_threshold)
+            .count();
+        above as f64 / values.len() as f64
+    };
+    let head8 = share_above("head", 0.25 * 255.0);
+    let head16 = share_above("head16", advised);
+    assert!(
+        (head16 - head8).abs() < 0.03,
+        "threshold {advised} keeps {:.1} % of head16's voxels, the 8-bit preset {:.1} % of head's",
+        100.0 * head16,
+        100.0 * head8
+    );
+}

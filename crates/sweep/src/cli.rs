@@ -8,6 +8,7 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use crate::backend::{Backend, Local, Slurm, SlurmOptions};
+use crate::bench::{BenchMode, BenchOptions};
 use crate::plan::Quality;
 use crate::render::CellFilter;
 use crate::tune::{TuneMode, TuneOptions};
@@ -249,9 +250,20 @@ pub(crate) struct PlanArgs {
     /// Also print the sbatch lines a Slurm run would submit.
     #[arg(long)]
     pub(crate) slurm: bool,
-    /// List the cells of a grid larger than the experiment's `max_cells`.
+    /// After the summary, list every cell: index, address, estimated seconds, axis values.
+    #[arg(long)]
+    pub(crate) list: bool,
+    /// Plan a grid larger than the experiment's `max_cells` (as `sweep run --yes`).
     #[arg(long, short)]
     pub(crate) yes: bool,
+    /// March groups rendered at once, as `sweep run --jobs`: the wall time is estimated for
+    /// it.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) jobs: usize,
+    /// Worker threads per job, as `sweep run --threads` (default: all cores); the pilots
+    /// render on as many.
+    #[arg(long)]
+    pub(crate) threads: Option<usize>,
     /// Count references the pool (`sweep run --reference-pool`) already holds as done, and
     /// those it holds at fewer samples per pixel as refined from there.
     #[arg(long, value_name = "DIR")]
@@ -307,7 +319,8 @@ pub(crate) struct RunArgs {
     pub(crate) experiment: PathBuf,
     #[command(flatten)]
     pub(crate) quality: QualityArgs,
-    /// Output folder (default: `reports/<experiment name>/`).
+    /// Output folder (default: `reports/<name>/`, or `reports/<name>-quick/` with --quick and
+    /// `reports/<name>-paper/` with --paper; `<name>` is the experiment's).
     #[arg(short, long)]
     pub(crate) output: Option<PathBuf>,
     /// Render only these cells, e.g. `3,7-9` (for outside schedulers).
@@ -316,7 +329,7 @@ pub(crate) struct RunArgs {
     /// Render only shard i of n (0-based), e.g. `2/8`.
     #[arg(long)]
     pub(crate) shard: Option<String>,
-    /// Cells rendered at once (each uses all threads; default 1).
+    /// March groups rendered at once (each on all threads, or on `--threads`).
     #[arg(long, default_value_t = 1)]
     pub(crate) jobs: usize,
     /// Worker threads (default: all cores).
@@ -366,7 +379,7 @@ pub(crate) struct TuneArgs {
     /// budget allows, and render nothing.
     #[arg(long)]
     pub(crate) dry_run: bool,
-    /// Cells rendered at once (local backend; each uses all threads; default 1).
+    /// Cells rendered at once (local backend; each on all threads, or on `--threads`).
     #[arg(long, default_value_t = 1)]
     pub(crate) jobs: usize,
     /// Worker threads (default: all cores).
@@ -446,6 +459,10 @@ pub(crate) struct BenchArgs {
     /// Run only these configurations (comma-separated; default: all).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub(crate) only: Vec<BenchConfig>,
+    /// Renders of each configuration: the table shows the render time's mean ± σ and min,
+    /// the JSON every run's times.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub(crate) runs: u32,
     /// Passes of the path tracer: in the efficiency comparison (default 16) and for the
     /// converged reference of `--peer` (default 1024).
     #[arg(long, value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
@@ -464,7 +481,7 @@ pub(crate) struct BenchArgs {
     #[arg(long)]
     pub(crate) python: Option<PathBuf>,
     /// Samples per pixel of the peer comparison's renders (comma-separated).
-    #[arg(long, value_delimiter = ',', default_values_t = [4u32, 16, 64])]
+    #[arg(long, value_delimiter = ',', default_value = "4,16,64")]
     pub(crate) peer_spp: Vec<u32>,
     /// Seeds per setting of the peer comparison (the spread of their means is the noise).
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(2..=64))]
@@ -606,6 +623,48 @@ fn backend(
         }),
         BackendChoice::Slurm => Box::new(Slurm { options: slurm }),
     })
+}
+
+impl BenchArgs {
+    /// The validated options of `sweep bench`.
+    pub(crate) fn options(&self) -> BenchOptions {
+        let mode = match (self.peer, self.estimators) {
+            (Some(Peer::Mitsuba), _) => BenchMode::Peer,
+            (None, true) => BenchMode::Estimators,
+            (None, false) => BenchMode::Configurations,
+        };
+        BenchOptions {
+            mode,
+            quick: self.quick,
+            threads: self.threads,
+            scene: self.scene.clone(),
+            only: self.only.iter().map(|c| c.config()).collect(),
+            runs: self.runs,
+            reference_passes: self.reference_passes,
+            python: self.python.clone(),
+            peer_spp: self.peer_spp.clone(),
+            seeds: self.seeds,
+            resolution: self.resolution,
+            peer_dir: self.peer_dir.clone(),
+            json: self.json.clone(),
+        }
+    }
+}
+
+impl BenchConfig {
+    /// The configuration it names.
+    fn config(self) -> crate::bench::BenchConfig {
+        use crate::bench::BenchConfig as C;
+        match self {
+            BenchConfig::Marched => C::Marched,
+            BenchConfig::Exact => C::Exact,
+            BenchConfig::EverySample => C::EverySample,
+            BenchConfig::Thinned => C::Thinned,
+            BenchConfig::OneThread => C::OneThread,
+            BenchConfig::Cached => C::Cached,
+            BenchConfig::Efficiency => C::Efficiency,
+        }
+    }
 }
 
 impl TuneArgs {

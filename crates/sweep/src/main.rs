@@ -5,9 +5,11 @@
 
 mod analyse;
 mod backend;
+mod bench;
 mod claims;
 mod cli;
 mod commands;
+mod cost;
 mod plan;
 mod progress;
 mod render;

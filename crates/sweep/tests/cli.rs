@@ -149,3 +149,214 @@ fn a_file_of_the_other_kind_is_named_with_the_verb_that_takes_it() {
         assert!(!err.contains("unknown field"), "{args:?}: {err}");
     }
 }
+
+fn quickstart() -> String {
+    concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../experiments/quickstart.toml"
+    )
+    .to_string()
+}
+
+/// stdout of a successful `sweep` call.
+fn stdout_of(args: &[&str]) -> String {
+    let out = sweep().args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// `sweep plan` leads with its summary (cells, groups, wall time at the given --jobs, the
+/// output folder) and lists the cells only when asked to; the quality is named as
+/// everywhere else (`default`, not `Default`).
+#[test]
+fn plan_prints_its_summary_first_and_the_cells_on_request() {
+    let exp = quickstart();
+    let text = stdout_of(&["plan", &exp, "--no-pilot"]);
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(
+        lines[0].contains("quickstart (`default` quality): 4 cells in 2 march group(s)")
+            && lines[0].contains("reports/quickstart"),
+        "{text}"
+    );
+    assert!(!text.contains("Default quality"), "{text}");
+    assert!(
+        text.contains("estimated wall time") && text.contains("at --jobs 1"),
+        "{text}"
+    );
+    assert!(
+        !lines.iter().any(|l| l.trim_start().starts_with("index")),
+        "cell rows without --list: {text}"
+    );
+    assert!(
+        text.contains("--list"),
+        "says how to list the cells: {text}"
+    );
+    let listed = stdout_of(&["plan", &exp, "--no-pilot", "--list", "--jobs", "3"]);
+    let lines: Vec<&str> = listed.lines().collect();
+    let summary = lines
+        .iter()
+        .position(|l| l.contains("estimated wall time") && l.contains("at --jobs 3"))
+        .expect(&listed);
+    let header = lines
+        .iter()
+        .position(|l| l.trim_start().starts_with("index"))
+        .expect(&listed);
+    assert!(summary < header, "summary before the rows: {listed}");
+    assert_eq!(lines.len() - header - 1, 4, "one row per cell: {listed}");
+    let quick = stdout_of(&["plan", &exp, "--no-pilot", "--quick"]);
+    assert!(
+        quick.contains("(`quick` quality)") && quick.contains("reports/quickstart-quick"),
+        "{quick}"
+    );
+}
+
+/// The time `sweep plan` reports is the whole of it, pilot renders included, and says how
+/// much of it the pilots took.
+#[test]
+fn plan_says_how_long_planning_took_with_its_pilots() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = format!(
+        "{}[camera]\nresolution = [24, 24]\n[integrator]\nvolume_photons = 500\nnused = 20\nstepsize = 0.02\n",
+        volphot::test_util::SMALL_SCENE
+    );
+    std::fs::write(tmp.path().join("s.toml"), scene).unwrap();
+    let exp = tmp.path().join("e.toml");
+    std::fs::write(
+        &exp,
+        "name = \"tiny\"\nscene = \"s.toml\"\n[axes]\n\"integrator.nused\" = [10, 20]\n",
+    )
+    .unwrap();
+    let text = stdout_of(&["plan", exp.to_str().unwrap()]);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("planned in "))
+        .unwrap_or_else(|| panic!("no `planned in` line: {text}"));
+    let numbers: Vec<f64> = line
+        .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    assert!(
+        line.contains("of which") && line.contains("pilot render"),
+        "{line}"
+    );
+    // Seconds in all, seconds of pilots, pilot renders (one march group of two cells).
+    let (total, pilots, renders) = (numbers[0], numbers[1], numbers[2]);
+    assert!(total >= pilots && renders == 1.0, "{line}");
+}
+
+/// The lines of `--help` that describe one option (its name line and the text under it).
+fn option_block(help: &str, option: &str) -> String {
+    let mut block = Vec::new();
+    let mut inside = false;
+    for line in help.lines() {
+        let trimmed = line.trim_start();
+        if trimmed.starts_with('-') {
+            inside = trimmed.contains(option);
+        }
+        if inside {
+            block.push(line);
+        }
+    }
+    block.join("\n")
+}
+
+/// Help texts name the folders `--paper` and `--quick` write to, show comma-separated
+/// defaults as they are typed, and state each default once; `sweep render`'s default
+/// output folder is ignored by git.
+#[test]
+fn help_texts_say_where_output_goes_and_each_default_once() {
+    let run = stdout_of(&["run", "--help"]);
+    let output = option_block(&run, "--output");
+    assert!(
+        output.contains("<name>-paper") && output.contains("<name>-quick"),
+        "{output}"
+    );
+    for verb in ["run", "tune"] {
+        let help = stdout_of(&[verb, "--help"]);
+        let jobs = option_block(&help, "--jobs");
+        assert_eq!(
+            jobs.to_lowercase().matches("default").count(),
+            1,
+            "{verb} --jobs: {jobs}"
+        );
+    }
+    let bench = stdout_of(&["bench", "--help"]);
+    let spp = option_block(&bench, "--peer-spp");
+    assert!(spp.contains("[default: 4,16,64]"), "{spp}");
+    let render = stdout_of(&["render", "--help"]);
+    let out = option_block(&render, "--output");
+    let default = out
+        .split("[default: ")
+        .nth(1)
+        .and_then(|s| s.split(']').next())
+        .expect(&out);
+    let gitignore =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../.gitignore")).unwrap();
+    let folder = default.trim_end_matches('/');
+    assert!(
+        gitignore
+            .lines()
+            .any(|l| l == format!("/{folder}/") || l == format!("/{folder}")),
+        "`sweep render`'s default output `{default}` is not in .gitignore"
+    );
+}
+
+/// `sweep bench --runs N` renders each configuration N times: mean ± σ and min in the
+/// table, every run's times in the JSON; one run by default.
+#[test]
+fn bench_repeats_each_configuration_and_keeps_every_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let json = tmp.path().join("bench.json");
+    let common = [
+        "bench",
+        "--quick",
+        "--resolution",
+        "16x16",
+        "--threads",
+        "1",
+        "--json",
+        json.to_str().unwrap(),
+    ];
+    let mut args = common.to_vec();
+    args.extend(["--only", "marched,exact", "--runs", "3"]);
+    let text = stdout_of(&args);
+    assert!(text.contains("mean ± σ") && text.contains("min"), "{text}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let measurements = report["measurements"].as_array().unwrap();
+    assert_eq!(measurements.len(), 2);
+    for m in measurements {
+        let runs: Vec<f64> = m["runs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["render_s"].as_f64().unwrap())
+            .collect();
+        assert_eq!(runs.len(), 3, "{m}");
+        assert!(runs.iter().all(|t| *t > 0.0), "{runs:?}");
+        let mean = runs.iter().sum::<f64>() / 3.0;
+        let sd = (runs.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / 2.0).sqrt();
+        let min = runs.iter().cloned().fold(f64::INFINITY, f64::min);
+        let close = |a: &serde_json::Value, b: f64| (a.as_f64().unwrap() - b).abs() < 1e-9;
+        assert!(close(&m["render"]["mean"], mean), "{m}");
+        assert!(close(&m["render"]["stddev"], sd), "{m}");
+        assert!(close(&m["render"]["min"], min), "{m}");
+        let row = text
+            .lines()
+            .find(|l| l.starts_with(m["configuration"].as_str().unwrap()))
+            .unwrap();
+        assert!(row.contains('±'), "{row}");
+    }
+    let mut args = common.to_vec();
+    args.extend(["--only", "marched"]);
+    stdout_of(&args);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let m = &report["measurements"][0];
+    assert_eq!(m["runs"].as_array().unwrap().len(), 1, "{m}");
+    assert!(m["render"]["stddev"].is_null(), "no σ of one run: {m}");
+}

@@ -84,11 +84,7 @@ fn check_exportable(scene: &Scene) -> Result<()> {
         if let super::Light::Spot(s) = light
             && s.falloff_shape() != super::SpotFalloff::Linear
         {
-            return Err(Error::parameter(
-                format!("lights[{i}].falloff"),
-                "\"pbrt\"",
-                "\"linear\" for Mitsuba: its spot light falls off linearly in angle",
-            ));
+            return Err(pbrt_falloff_refused(i, s, light));
         }
     }
     if scene.medium().has_colour() {
@@ -99,6 +95,33 @@ fn check_exportable(scene: &Scene) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// Why a spot light with pbrt-v1's falloff is not exported, and what switching it to
+/// Mitsuba's linear falloff would change, measured on this light. The export refuses
+/// rather than approximate: a peer comparison is only worth its numbers when both
+/// renderers render the same scene, so the user switches the falloff in a copy of the
+/// scene that volphot renders too.
+fn pbrt_falloff_refused(i: usize, spot: &super::SpotLight, light: &super::Light) -> Error {
+    let params = light.params();
+    // The angles as written (they come back from radians with a rounding error).
+    let degrees = |a: Option<f32>| (a.unwrap_or_default() as f64 * 1e4).round() / 1e4;
+    let (beam, cone) = (degrees(params.beam_width), degrees(params.cone_angle));
+    // Both falloffs are 1 inside the beam; they differ over the band out to the cone.
+    let inside = 2.0 * std::f64::consts::PI * (1.0 - beam.to_radians().cos());
+    let pbrt = spot.solid_angle_weight() as f64;
+    let linear = spot
+        .with_falloff(super::SpotFalloff::Linear)
+        .solid_angle_weight() as f64;
+    let band = (linear - inside) / (pbrt - inside).max(f64::MIN_POSITIVE);
+    Error::parameter(
+        format!("lights[{i}].falloff"),
+        "\"pbrt\"",
+        format!(
+            "\"linear\" for Mitsuba, whose spot light's falloff is linear in the angle from `beam_width` to `cone_angle`; pbrt-v1's falloff (the thesis's scenes, `sweep import`) is quartic in cos θ over that band (pbrt's `conedeltaangle`): ((cos θ − cos θc)/(cos θw − cos θc))⁴, darker towards the rim. For this light (beam_width {beam}°, cone_angle {cone}°) the linear falloff sends {band:.1}× the band's light and {whole:+.0} % of the light's whole output (∫ falloff dω = {linear:.4} sr against {pbrt:.4} sr), so Mitsuba would light the volume brighter at the spot's rim than volphot renders it. To compare the renderers, set `falloff = \"linear\"` on this light in a copy of the scene and render that copy with volphot as well",
+            whole = 100.0 * (linear / pbrt - 1.0),
+        ),
+    )
 }
 
 /// The transferred density grid as a Mitsuba `.vol` file.
@@ -418,5 +441,57 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("integrator.emission"), "{err}");
+    }
+
+    /// `∫ falloff dω` of a spot light's band between `beam` and `cone` degrees, numerically:
+    /// pbrt-v1's quartic in cos θ, or Mitsuba's linear in the angle.
+    fn band_integral(beam: f64, cone: f64, pbrt: bool) -> f64 {
+        let (tw, tc) = (beam.to_radians(), cone.to_radians());
+        let n = 100_000;
+        (0..n)
+            .map(|k| {
+                let t = tw + (tc - tw) * (k as f64 + 0.5) / n as f64;
+                let f = if pbrt {
+                    ((t.cos() - tc.cos()) / (tw.cos() - tc.cos())).powi(4)
+                } else {
+                    (tc - t) / (tc - tw)
+                };
+                2.0 * std::f64::consts::PI * f * t.sin() * (tc - tw) / n as f64
+            })
+            .sum()
+    }
+
+    #[test]
+    fn a_pbrt_falloff_is_refused_saying_what_linear_would_change() {
+        let scene = test_util::scene(
+            "[volume]\nphantom = { name = \"sphere\", resolution = [8, 8, 8] }\n[[lights]]\ntype = \"point\"\nposition = [2, 0.5, 0.5]\nintensity = 7\n[[lights]]\ntype = \"spot\"\nposition = [0.5, -1.5, 0.5]\ntarget = [0.5, 0.5, 0.5]\nintensity = 3\ncone_angle = 30\nbeam_width = 20\nfalloff = \"pbrt\"\n",
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let err = export_mitsuba(&scene, dir.path(), "x")
+            .unwrap_err()
+            .to_string();
+        for expected in [
+            "lights[1].falloff",
+            "quartic in cos θ",
+            "conedeltaangle",
+            "linear in the angle",
+            "falloff = \"linear\"",
+        ] {
+            assert!(err.contains(expected), "lacks `{expected}`: {err}");
+        }
+        // What switching changes, measured on this light: the band's light and the whole.
+        let (pbrt, linear) = (
+            band_integral(20.0, 30.0, true),
+            band_integral(20.0, 30.0, false),
+        );
+        let core = 2.0 * std::f64::consts::PI * (1.0 - 20f64.to_radians().cos());
+        let band = format!("{:.1}×", linear / pbrt);
+        let whole = format!("{:.0} %", 100.0 * ((core + linear) / (core + pbrt) - 1.0));
+        assert!(err.contains(&band), "lacks the band's ratio {band}: {err}");
+        assert!(
+            err.contains(&whole),
+            "lacks the whole light's change {whole}: {err}"
+        );
+        assert!(!dir.path().join("x.xml").exists(), "nothing written");
     }
 }

@@ -1,4 +1,6 @@
-//! One module per verb.
+//! One module per verb: each turns its arguments into options and calls the module that
+//! does the work (`plan` prints what [`crate::cost`] estimates, `bench` runs
+//! [`crate::bench`], `tune` is [`crate::tune`]).
 
 mod bench;
 mod claims;
@@ -6,8 +8,6 @@ mod datasets;
 mod export;
 mod import;
 mod index;
-mod peer;
-mod pilot;
 mod plan;
 mod render;
 mod report;

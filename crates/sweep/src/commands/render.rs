@@ -21,6 +21,9 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode> {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "render".into());
     write_outputs(&args.output, &stem, &output, params.film.exposure)?;
+    for warning in &output.record.warnings {
+        eprintln!("warning: {stem}: {warning}");
+    }
     let film = &output.film;
     let t = &output.record.timings;
     eprintln!(

@@ -33,6 +33,18 @@ pub(crate) struct GroupOutcome {
     pub(crate) done_elsewhere: usize,
     pub(crate) photon_maps: usize,
     pub(crate) failures: Vec<(usize, String)>,
+    /// What finished cells' settings cannot resolve.
+    pub(crate) warnings: Vec<CellWarning>,
+}
+
+/// A warning of a finished cell (see `volphot::render_warnings`).
+pub(crate) struct CellWarning {
+    /// Plan index.
+    pub(crate) index: usize,
+    /// `key = value, …`.
+    pub(crate) label: String,
+    /// The warning, a sentence.
+    pub(crate) message: String,
 }
 
 /// Where a group is rendered and with what.
@@ -167,16 +179,18 @@ pub(crate) fn render_group(
         None => control,
     };
     let shared = volphot::render_shared(&scene, &integrators, &control)?;
-    let (rendered, failed) = write_cells(jobs, &shared, &scene, ctx.out);
+    let (rendered, failed, warnings) = write_cells(jobs, &shared, &scene, ctx.out);
     claimed.failures.extend(failed);
     Ok(GroupOutcome {
         rendered,
         photon_maps: shared.photon_maps,
+        warnings,
         ..claimed.into_outcome()
     })
 }
 
-/// Writes the cells of a shared render: how many were written, and the ones that failed.
+/// Writes the cells of a shared render: how many were written, the ones that failed, and
+/// the written cells' warnings.
 ///
 /// Each cell's metrics and files are its own and single-threaded, so the cells are
 /// written in parallel (a 512² cell takes seconds; a group of 54 took minutes one by one).
@@ -185,8 +199,8 @@ fn write_cells(
     shared: &SharedRender,
     scene: &Scene,
     out: &OutputDir,
-) -> (usize, Vec<(usize, String)>) {
-    let written: Vec<Result<()>> = jobs
+) -> (usize, Vec<(usize, String)>, Vec<CellWarning>) {
+    let written: Vec<Result<Vec<String>>> = jobs
         .par_iter()
         .zip(shared.films.par_iter())
         .map(|((job, _lock), result)| {
@@ -202,24 +216,31 @@ fn write_cells(
         })
         .collect();
     let mut rendered = 0;
-    let mut failures = Vec::new();
+    let (mut failures, mut warned) = (Vec::new(), Vec::new());
     for ((job, _lock), outcome) in jobs.iter().zip(written) {
         match outcome {
-            Ok(()) => rendered += 1,
+            Ok(warnings) => {
+                rendered += 1;
+                warned.extend(warnings.into_iter().map(|message| CellWarning {
+                    index: job.spec.index,
+                    label: job.spec.label(),
+                    message,
+                }));
+            }
             Err(e) => failures.push((job.spec.index, format!("{e:#}"))),
         }
     }
-    (rendered, failures)
+    (rendered, failures, warned)
 }
 
-/// Writes a finished cell: film, PNGs, metrics, record.
+/// Writes a finished cell: film, PNGs, metrics, record; returns the record's warnings.
 fn write_cell(
     job: &Job,
     scene: &Scene,
     result: &SharedFilm,
     mut timings: CellTimings,
     out: &OutputDir,
-) -> Result<()> {
+) -> Result<Vec<String>> {
     let film = &result.film;
     anyhow::ensure!(
         film.is_finite(),
@@ -242,6 +263,11 @@ fn write_cell(
     // The march's scene is any cell's of the group; each cell records its own parameters.
     let mut provenance = Provenance::of(scene);
     provenance.scene = p.clone();
+    let warnings: Vec<String> =
+        volphot::render_warnings(&p.integrator, &provenance.sigma, result.photons.as_ref())
+            .iter()
+            .map(ToString::to_string)
+            .collect();
     let record = CellRecord {
         index: job.spec.index,
         hash: job.hash.clone(),
@@ -265,6 +291,7 @@ fn write_cell(
             .iter()
             .map(|f| FileCheck::of(dir, f))
             .collect::<Result<_>>()?,
+        warnings,
     };
     write_record(dir, &record)?;
     staged.commit()?;
@@ -272,5 +299,5 @@ fn write_cell(
     if let Some(key) = &job.reference {
         compare_with_reference(out, &job.hash, key, p, film)?;
     }
-    Ok(())
+    Ok(record.warnings)
 }

@@ -424,6 +424,9 @@ fn render_groups(
             ..Default::default()
         });
         record_failures(group, &outcome, ctx.out, multi);
+        for w in &outcome.warnings {
+            multi.suspend(|| eprintln!("warning: cell {} ({}): {}", w.index, w.label, w.message));
+        }
         overall.inc(group.len() as u64);
         outcome
     };

@@ -61,6 +61,11 @@ pub(crate) fn layer_differences(
         .gain
         .unwrap_or_else(|| auto_gain(&multiple().collect::<Vec<f32>>(), exposure));
     let scale = multiple().fold(0.0f32, f32::max).max(1e-9);
+    figures.diff_legend = format!(
+        "Each cell's differences at full size: amplified, |single + multiple − single| × {} (the multiple-scattering layer, thesis Fig. 18); signed, single + multiple − single in red where it adds light, full red at {} (the brightest multiple layer of the grid).",
+        sig3(gain),
+        sig3(scale)
+    );
     for (c, film) in &films {
         let path = layer_difference(out, c, film, gain, scale, exposure)?;
         figures.diffs.push((
@@ -69,7 +74,17 @@ pub(crate) fn layer_differences(
                 c.planned.label,
                 sig3(gain)
             ),
-            path,
+            path.clone(),
+        ));
+        let [_, amplified, signed] = written_with(&path)
+            .try_into()
+            .expect("a sheet comes with two differences");
+        figures.diff_images.push((
+            c.planned.label.clone(),
+            vec![
+                (format!("amplified × {}", sig3(gain)), amplified),
+                ("signed".to_string(), signed),
+            ],
         ));
     }
     Ok(())

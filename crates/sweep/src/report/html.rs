@@ -90,6 +90,15 @@ fn lone_image<'a>(events: &[Event<'a>]) -> Option<(CowStr<'a>, String, usize)> {
     None
 }
 
+/// The index of the heading the explorer goes before: the first section after "What
+/// changed" (the report's few sentences are read before the images are explored).
+fn explorer_position(events: &[Event<'_>]) -> Option<usize> {
+    let h2 = |e: &Event<'_>| matches!(e, Event::Start(Tag::Heading { level, .. }) if *level == HeadingLevel::H2);
+    events.iter().enumerate().position(|(i, e)| {
+        h2(e) && !matches!(events.get(i + 1), Some(Event::Text(t)) if t.as_ref() == "What changed")
+    })
+}
+
 /// Turns the report's Markdown into a self-contained HTML page (images inlined) with the
 /// explorer.
 pub(crate) fn html(
@@ -104,6 +113,7 @@ pub(crate) fn html(
         .map(|p| (super::markdown::rel(root, &p.path), p))
         .collect();
     let events: Vec<Event> = Parser::new_ext(markdown, Options::ENABLE_TABLES).collect();
+    let explorer_at = explorer_position(&events);
     let mut out: Vec<Event> = Vec::with_capacity(events.len());
     let (mut explorer_placed, mut in_section_title, mut section) = (false, false, String::new());
     let mut i = 0;
@@ -116,9 +126,9 @@ pub(crate) fn html(
         let event = events[i].clone();
         i += 1;
         match &event {
-            // The explorer goes before the first section.
+            // The explorer goes before the first section after the summary.
             Event::Start(Tag::Heading { level, .. }) if *level == HeadingLevel::H2 => {
-                if !explorer_placed {
+                if !explorer_placed && Some(i - 1) == explorer_at {
                     out.push(Event::Html(explorer.section().into()));
                     explorer_placed = true;
                 }

@@ -56,6 +56,10 @@ impl Report<'_> {
     pub(crate) fn markdown(&self) -> String {
         let mut s = String::new();
         self.header(&mut s);
+        // A tune's cells are scattered configurations, not a grid to read along an axis.
+        if self.experiment.tune.is_none() {
+            s.push_str(&super::summary::what_changed(&self.plan.axes, self.cells));
+        }
         self.grid(&mut s);
         self.provenance(&mut s);
         self.caches(&mut s);
@@ -349,6 +353,17 @@ impl Report<'_> {
             .collect();
         section("Plots", &plots);
         section("Difference images", &self.figures.diffs);
+        if !self.figures.diff_images.is_empty() {
+            let _ = writeln!(s, "{}\n", md_text(&self.figures.diff_legend));
+            for (label, links) in &self.figures.diff_images {
+                let links: Vec<String> = links
+                    .iter()
+                    .map(|(text, path)| format!("[{}]({})", md_text(text), rel(root, path)))
+                    .collect();
+                let _ = writeln!(s, "- {}: {}", md_text(label), links.join(" · "));
+            }
+            let _ = writeln!(s);
+        }
         for (title, t) in &self.figures.comparisons {
             let _ = writeln!(s, "\n### Comparison {}\n", md_text(title));
             let _ = writeln!(s, "{}", markdown_table(t, vec![]));

@@ -13,6 +13,7 @@ mod index;
 mod markdown;
 mod plots;
 mod sheets;
+mod summary;
 mod table;
 
 use std::path::PathBuf;
@@ -32,6 +33,11 @@ use crate::store::{OutputDir, clean_stale, read_plan, recorded_but_absent};
 pub(crate) struct Figures {
     sheets: Vec<(String, PathBuf)>,
     diffs: Vec<(String, PathBuf)>,
+    /// The full-size images behind the layer-difference sheets, per cell: its label and
+    /// the links (text, image), listed in the report's "Difference images" section.
+    diff_images: Vec<(String, Vec<(String, PathBuf)>)>,
+    /// What the linked differences show (their gain and scale), said once above the list.
+    diff_legend: String,
     plots: Vec<PlotFigure>,
     comparisons: Vec<(String, Table)>,
 }

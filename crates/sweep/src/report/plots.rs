@@ -59,7 +59,7 @@ fn axis_label(key: &str) -> String {
 }
 
 /// A value as a legend or panel shows it: a scene by its file's name.
-fn value_name(key: &str, v: &serde_json::Value) -> String {
+pub(crate) fn value_name(key: &str, v: &serde_json::Value) -> String {
     let text = value_label(v);
     if key == "scene" {
         Path::new(&text)

@@ -166,6 +166,9 @@ pub(crate) struct CellRecord {
     /// one (empty in records written before files were checked).
     #[serde(default)]
     pub(crate) files: Vec<FileCheck>,
+    /// What the cell's settings cannot resolve (`volphot::render_warnings`), as sentences.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub(crate) warnings: Vec<String>,
 }
 
 /// Whether a cell has finished and is whole (see [`super::cell_state`]).

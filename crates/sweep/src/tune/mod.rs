@@ -12,9 +12,15 @@
 //! Output in `OUTPUT/tune/`: `observations.csv`, `pareto.csv` + `pareto.png`/`.svg`,
 //! `best*.toml` (ready-to-use scenes per time budget), `sensitivity.csv` and `report.md`
 //! (linked from the experiment's report).
+//!
+//! Dependencies run one way: this module dispatches the modes to `search` (the Hyperband
+//! loop and the Slurm array task) and `output` (the files and the dry run); `search` hands
+//! its [`evaluation::Evaluation`]s to `output`, and both take that type from the leaf
+//! `evaluation`.
 
 mod analysis;
 mod cells;
+mod evaluation;
 mod hyperband;
 mod output;
 mod propose;
@@ -22,10 +28,15 @@ mod search;
 mod space;
 
 use std::path::PathBuf;
+use std::process::ExitCode;
 use std::time::Duration;
 
+use anyhow::Result;
+
 use crate::backend::Backend;
+use crate::plan::{Experiment, Quality, default_output};
 use crate::render::CellFilter;
+use crate::store::OutputDir;
 
 /// What `sweep tune` does.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -56,4 +67,23 @@ pub(crate) struct TuneOptions {
     pub(crate) cell_timeout: Option<Duration>,
 }
 
-pub(crate) use search::run;
+/// `sweep tune`.
+pub(crate) fn run(opts: &TuneOptions) -> Result<ExitCode> {
+    let exp = Experiment::load(&opts.experiment)?;
+    let spec = exp.tune.as_ref().ok_or_else(|| {
+        anyhow::anyhow!(
+            "{}: no [tune] section; `sweep tune` needs one (objective, budget, fidelity, space; see `sweep tune --help`), and a grid runs with `sweep run`",
+            opts.experiment.display()
+        )
+    })?;
+    let out = OutputDir::new(
+        opts.output
+            .clone()
+            .unwrap_or_else(|| default_output(&exp, Quality::Default)),
+    );
+    match &opts.mode {
+        TuneMode::DryRun => output::dry_run(&exp, spec, &out),
+        TuneMode::Cells(filter) => search::render_planned(&exp, &out, filter, opts),
+        TuneMode::Search => search::search(&exp, spec, out, opts),
+    }
+}

@@ -10,8 +10,8 @@ use anyhow::{Context, Result};
 
 use super::analysis::{bins_for, epsilon_squared, pareto_front, spearman};
 use super::cells::TuneCells;
+use super::evaluation::Evaluation;
 use super::hyperband::{MAX_ITERATIONS, bracket_renders, brackets_within, schedule};
-use super::search::Evaluation;
 use crate::plan::Experiment;
 use crate::plan::{Budget, ParamKind, Proposal, TuneSpec};
 use crate::report::{Panel, Plot, Point, Series, write_plot};

@@ -8,53 +8,15 @@ use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 
 use super::cells::{CellResult, TuneCells};
+use super::evaluation::Evaluation;
 use super::hyperband::{MAX_ITERATIONS, Rung, bracket_renders, schedule};
 use super::propose::{Observed, Origin, propose, stream};
-use super::{TuneMode, TuneOptions, output};
+use super::{TuneOptions, output};
 use crate::backend::Run;
-use crate::plan::default_output;
 use crate::plan::{Budget, TuneSpec};
 use crate::plan::{Experiment, Quality};
 use crate::render::{CellFilter, Selection};
 use crate::store::{OutputDir, cell_hash, check_owner, is_done, lock_tune, read_plan, write_plan};
-
-/// One configuration evaluated at one level (on every context).
-#[derive(Debug, Clone)]
-pub(crate) struct Evaluation {
-    /// Configuration id `i<iteration>-b<bracket>-c<k>`.
-    pub(crate) id: String,
-    /// Hyperband iteration.
-    pub(crate) iteration: u32,
-    /// Bracket (its number of halvings, Hyperband's s).
-    pub(crate) bracket: u32,
-    /// Rung within the bracket.
-    pub(crate) rung: u32,
-    /// Fidelity level.
-    pub(crate) level: u32,
-    /// Parameter values (choices as indices).
-    pub(crate) values: Vec<f64>,
-    /// How it was proposed.
-    pub(crate) origin: Origin,
-    /// Its cells, one per context.
-    pub(crate) cells: Vec<usize>,
-    /// The objective: geometric mean over contexts (+∞ when a cell failed).
-    pub(crate) error: f64,
-    /// Render seconds per frame predicted at the target level (largest over contexts).
-    pub(crate) seconds: f64,
-    /// Within the time constraint.
-    pub(crate) feasible: bool,
-}
-
-impl Evaluation {
-    /// What ranking and the model use: the error, or +∞ when infeasible.
-    pub(crate) fn loss(&self) -> f64 {
-        if self.feasible {
-            self.error
-        } else {
-            f64::INFINITY
-        }
-    }
-}
 
 /// A configuration alive in a bracket.
 struct Config {
@@ -63,28 +25,8 @@ struct Config {
     origin: Origin,
 }
 
-/// `sweep tune`.
-pub(crate) fn run(opts: &TuneOptions) -> Result<ExitCode> {
-    let exp = Experiment::load(&opts.experiment)?;
-    let spec = exp.tune.as_ref().ok_or_else(|| {
-        anyhow::anyhow!(
-            "{}: no [tune] section; `sweep tune` needs one (objective, budget, fidelity, space; see `sweep tune --help`), and a grid runs with `sweep run`",
-            opts.experiment.display()
-        )
-    })?;
-    let out = OutputDir::new(
-        opts.output
-            .clone()
-            .unwrap_or_else(|| default_output(&exp, Quality::Default)),
-    );
-    match &opts.mode {
-        TuneMode::DryRun => output::dry_run(&exp, spec, &out),
-        TuneMode::Cells(filter) => render_planned(&exp, &out, filter, opts),
-        TuneMode::Search => search(&exp, spec, out, opts),
-    }
-}
-
-fn search(
+/// The search, then the tune outputs and the reports.
+pub(super) fn search(
     exp: &Experiment,
     spec: &TuneSpec,
     out: OutputDir,
@@ -372,7 +314,7 @@ pub(crate) fn geometric_mean(values: impl Iterator<Item = f64>) -> f64 {
 
 /// A Slurm array task of a tune: renders cells of the output folder's `plan.json`, rebuilt
 /// from the experiment file and checked against their recorded addresses.
-fn render_planned(
+pub(super) fn render_planned(
     exp: &Experiment,
     out: &OutputDir,
     filter: &CellFilter,

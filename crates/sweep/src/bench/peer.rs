@@ -22,8 +22,8 @@ use volphot::{
     SceneParams, SearchPath, export_mitsuba, process_cpu_seconds, read_pfm,
 };
 
+use super::BenchOptions;
 use crate::analyse::mse_against_noisy_reference;
-use crate::cli::BenchArgs;
 
 /// Which part of the light a comparison is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -117,7 +117,11 @@ struct MitsubaRun {
 }
 
 /// Runs the comparison.
-pub(crate) fn run(args: &BenchArgs, scene_path: &Path, params: &SceneParams) -> Result<ExitCode> {
+pub(crate) fn run(
+    args: &BenchOptions,
+    scene_path: &Path,
+    params: &SceneParams,
+) -> Result<ExitCode> {
     let pool = crate::render::thread_pool(args.threads)?;
     let temporary = std::env::temp_dir().join(format!("volphot-peer-{}", std::process::id()));
     let dir = args.peer_dir.clone().unwrap_or_else(|| temporary.clone());
@@ -179,7 +183,7 @@ pub(crate) fn run(args: &BenchArgs, scene_path: &Path, params: &SceneParams) -> 
 /// `sweep bench --estimators`: volphot's multiple-scattering estimators and its path
 /// tracer against one converged reference of the whole image (no peer renderer).
 pub(crate) fn run_estimators(
-    args: &BenchArgs,
+    args: &BenchOptions,
     scene_path: &Path,
     params: &SceneParams,
 ) -> Result<ExitCode> {
@@ -346,7 +350,7 @@ fn reference(scene: &Scene, part: Part, passes: u32) -> Result<Reference> {
 
 /// Runs `peer_mitsuba.py` for both parts and every spp and seed.
 fn run_mitsuba(
-    args: &BenchArgs,
+    args: &BenchOptions,
     xml: &Path,
     out: &Path,
     threads: usize,
