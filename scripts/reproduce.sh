@@ -20,7 +20,17 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --locked --bin sweep
 pool="${VOLPHOT_REFERENCE_POOL:-reports/reference-pool}"
+# `sweep run` writes to out/<name> by default; the committed studies live in reports/.
+suffix=""
+for arg in "$@"; do
+  case "$arg" in
+    --paper) suffix="-paper" ;;
+    --quick) suffix="-quick" ;;
+  esac
+done
 for experiment in quickstart artifacts free_path transparent single_vs_multiple albedo stepsize cost consistency alpha presets; do
   echo "== $experiment"
-  ./target/release/sweep "experiments/$experiment.toml" --quiet --reference-pool "$pool" "$@"
+  ./target/release/sweep "experiments/$experiment.toml" --quiet --reference-pool "$pool" \
+    --output "reports/$experiment$suffix" "$@"
 done
+./target/release/sweep index reports

@@ -319,8 +319,8 @@ pub(crate) struct RunArgs {
     pub(crate) experiment: PathBuf,
     #[command(flatten)]
     pub(crate) quality: QualityArgs,
-    /// Output folder (default: `reports/<name>/`, or `reports/<name>-quick/` with --quick and
-    /// `reports/<name>-paper/` with --paper; `<name>` is the experiment's).
+    /// Output folder (default: `out/<name>/`, or `out/<name>-quick/` with --quick and
+    /// `out/<name>-paper/` with --paper; `<name>` is the experiment's).
     #[arg(short, long)]
     pub(crate) output: Option<PathBuf>,
     /// Render only these cells, e.g. `3,7-9` (for outside schedulers).
@@ -372,7 +372,7 @@ pub(crate) struct RunArgs {
 pub(crate) struct TuneArgs {
     /// Experiment file with a `[tune]` section.
     pub(crate) experiment: PathBuf,
-    /// Output folder (default: `reports/<experiment name>/`).
+    /// Output folder (default: `out/<experiment name>/`).
     #[arg(short, long)]
     pub(crate) output: Option<PathBuf>,
     /// Check the file and every searched key, print the Hyperband schedule and what the

@@ -179,7 +179,7 @@ fn plan_prints_its_summary_first_and_the_cells_on_request() {
     let lines: Vec<&str> = text.lines().collect();
     assert!(
         lines[0].contains("quickstart (`default` quality): 4 cells in 2 march group(s)")
-            && lines[0].contains("reports/quickstart"),
+            && lines[0].contains("out/quickstart"),
         "{text}"
     );
     assert!(!text.contains("Default quality"), "{text}");
@@ -209,7 +209,7 @@ fn plan_prints_its_summary_first_and_the_cells_on_request() {
     assert_eq!(lines.len() - header - 1, 4, "one row per cell: {listed}");
     let quick = stdout_of(&["plan", &exp, "--no-pilot", "--quick"]);
     assert!(
-        quick.contains("(`quick` quality)") && quick.contains("reports/quickstart-quick"),
+        quick.contains("(`quick` quality)") && quick.contains("out/quickstart-quick"),
         "{quick}"
     );
 }

@@ -350,7 +350,7 @@ impl Experiment {
 }
 
 /// The experiment's name (the file stem unless given): a plain name, because it becomes the
-/// default output folder `reports/<name>/`.
+/// default output folder `out/<name>/`.
 fn experiment_name(source: &Source, file: &ExperimentFile) -> Result<String> {
     let (name, given) = match &file.name {
         Some(n) => (n.clone(), true),
@@ -375,7 +375,7 @@ fn experiment_name(source: &Source, file: &ExperimentFile) -> Result<String> {
     if plain {
         return Ok(name);
     }
-    let expected = "a plain name of letters, digits, `-`, `_` and `.`, starting with a letter or digit (it names the output folder reports/<name>/)";
+    let expected = "a plain name of letters, digits, `-`, `_` and `.`, starting with a letter or digit (it names the output folder out/<name>/)";
     Err(if given {
         source.error("name", format!("`name` = {name:?}: expected {expected}"))
     } else {
@@ -411,14 +411,17 @@ fn base_scene(source: &Source, file: &ExperimentFile) -> Result<BaseScene> {
     }
 }
 
-/// The default output folder: `reports/<experiment name>/` (with a quality suffix).
+/// The default output folder: `out/<experiment name>/` (with a quality suffix). A run lands
+/// beside the repository's committed studies, never on them: `reports/` is regenerated on
+/// purpose (`scripts/reproduce.sh`), so running the main job leaves a clone's files as they
+/// were.
 pub(crate) fn default_output(exp: &Experiment, quality: Quality) -> std::path::PathBuf {
     let name = match quality {
         Quality::Default => exp.name.clone(),
         Quality::Quick => format!("{}-quick", exp.name),
         Quality::Paper => format!("{}-paper", exp.name),
     };
-    std::path::Path::new("reports").join(name)
+    std::path::Path::new("out").join(name)
 }
 
 #[cfg(test)]

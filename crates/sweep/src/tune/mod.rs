@@ -53,7 +53,7 @@ pub(crate) enum TuneMode {
 pub(crate) struct TuneOptions {
     /// The experiment file.
     pub(crate) experiment: PathBuf,
-    /// Output folder (default `reports/<name>/`).
+    /// Output folder (default `out/<name>/`).
     pub(crate) output: Option<PathBuf>,
     /// What to do.
     pub(crate) mode: TuneMode,
