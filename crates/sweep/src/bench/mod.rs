@@ -20,7 +20,10 @@ use volphot::{
     process_cpu_seconds,
 };
 
+mod machine;
 mod peer;
+
+pub(crate) use machine::Machine;
 
 use crate::analyse::{Agreement, agreement, mse_against_noisy_reference};
 
@@ -172,6 +175,8 @@ struct Efficiency {
 
 #[derive(Debug, Serialize)]
 struct BenchReport {
+    /// What it ran on.
+    machine: Machine,
     measurements: Vec<Measurement>,
     speedup_two_threads: Option<f64>,
     efficiency: Option<Efficiency>,
@@ -268,6 +273,7 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
         .filter(|c| args.only.is_empty() || args.only.contains(c))
         .collect();
     let mut report = BenchReport {
+        machine: Machine::describe(),
         measurements: Vec::new(),
         speedup_two_threads: None,
         efficiency: None,

@@ -96,6 +96,8 @@ struct Agreement {
 
 #[derive(Debug, Serialize)]
 struct PeerReport {
+    /// What it ran on.
+    machine: super::Machine,
     scene: String,
     resolution: [u32; 2],
     reference_passes: u32,
@@ -161,6 +163,7 @@ pub(crate) fn run(
         }
         let first = mitsuba.first().context("Mitsuba rendered nothing")?;
         Ok(PeerReport {
+            machine: super::Machine::describe(),
             scene: scene_path.display().to_string(),
             resolution: params.camera.resolution,
             reference_passes: passes,
@@ -199,6 +202,7 @@ pub(crate) fn run_estimators(
         Ok(rows)
     })?;
     let report = PeerReport {
+        machine: super::Machine::describe(),
         scene: scene_path.display().to_string(),
         resolution: params.camera.resolution,
         reference_passes: passes,
