@@ -1,5 +1,6 @@
 //! The data a claim is checked against: a study's `cells.csv`, any CSV file (a plot's
-//! points, a tune's observations) or a JSON file (the committed bench), read once each.
+//! points, a tune's observations), a JSON file (the committed bench) or a TOML file (a
+//! study's `experiment.toml`), read once each.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -85,12 +86,20 @@ impl Sources {
             path = path.join("cells.csv");
         }
         if !self.loaded.contains_key(&path) {
-            let loaded = if path.extension().is_some_and(|e| e == "json") {
+            let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+            let loaded = if extension == "json" {
                 let text = volphot::read_text_capped(&path, volphot::TEXT_INPUT_CAP, "JSON file")?;
                 Loaded::Json(
                     serde_json::from_str(&text)
                         .with_context(|| format!("{}: not JSON", path.display()))?,
                 )
+            } else if extension == "toml" {
+                // An experiment's own settings (a study's `experiment.toml`), read as JSON.
+                let text = volphot::read_text_capped(&path, volphot::TEXT_INPUT_CAP, "TOML file")?;
+                let table: toml::Table = text
+                    .parse()
+                    .with_context(|| format!("{}: not TOML", path.display()))?;
+                Loaded::Json(serde_json::to_value(table)?)
             } else {
                 Loaded::Table(read_table(&path)?)
             };
