@@ -7,6 +7,7 @@
 //! * `import` — the thesis's pbrt-v1 scenes through `sweep import`;
 //! * `medical` — a DICOM folder with a Slicer preset, and a broken series;
 //! * `claims` — the thesis's findings that the committed studies reproduce, on small grids;
+//! * `paper` — every number the paper and the README cite, against the committed data;
 //! * `browser` — `report.html` and its image explorer in headless Chromium;
 //! * `slurm` — a real single-node Slurm cluster (CI or `VOLPHOT_SLURM_TEST=1`);
 //! * `peer` — Mitsuba 3 renders the same scene (CI or `VOLPHOT_PEER_TEST=1`).
@@ -20,6 +21,7 @@ mod faults;
 mod figures;
 mod import;
 mod medical;
+mod paper;
 mod peer;
 mod reliability;
 mod runs;
