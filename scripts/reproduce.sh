@@ -1,11 +1,10 @@
 #!/usr/bin/env bash
 # Regenerates every committed study under reports/ (see reports/REPRODUCTION.md):
 #
-#   scripts/reproduce.sh            # default quality (37 min on 2 cores with the build, measured)
-#   scripts/reproduce.sh --paper    # thesis resolution and the full grids (4 h 26 min on 2 cores
-#                                   # measured study by study, 2 h 52 min with stepsize, alpha,
-#                                   # consistency and artifacts rendered again on 2026-12-05;
-#                                   # 5 h 10 min as first committed; reports/REPRODUCTION.md)
+#   scripts/reproduce.sh            # default quality, into reports/<study>/
+#   scripts/reproduce.sh --paper    # thesis resolution and the full grids, into reports/<study>-paper/
+#
+# The wall time of each study is written to reports/bench/reproduce[-paper].json.
 #
 # Needs the real volumes on the search path ($VOLPHOT_DATA, ./data or ../shared/data).
 # Finished cells are reused; delete a report folder to render it again.
@@ -28,9 +27,21 @@ for arg in "$@"; do
     --quick) suffix="-quick" ;;
   esac
 done
+# Each study's wall time goes to reports/bench/reproduce<suffix>.json (the documents cite it).
+times=()
+start_all=$(date +%s.%N)
 for experiment in quickstart artifacts free_path transparent single_vs_multiple albedo stepsize cost consistency alpha presets; do
   echo "== $experiment"
+  start=$(date +%s.%N)
   ./target/release/sweep "experiments/$experiment.toml" --quiet --reference-pool "$pool" \
     --output "reports/$experiment$suffix" "$@"
+  times+=("{\"study\": \"$experiment$suffix\", \"seconds\": $(awk "BEGIN { print $(date +%s.%N) - $start }")}")
 done
+total=$(awk "BEGIN { print $(date +%s.%N) - $start_all }")
+mkdir -p reports/bench
+{
+  echo "{\"host\": \"$(hostname)\", \"cores\": $(nproc), \"commit\": \"$(git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)\","
+  echo " \"studies\": [$(IFS=,; echo "${times[*]}")],"
+  echo " \"total_seconds\": $total}"
+} > "reports/bench/reproduce$suffix.json"
 ./target/release/sweep index reports
