@@ -3,9 +3,25 @@
 //! written beside it.
 
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use volphot_tests::{read_csv, run_ok, sweep, write_experiment};
+
+/// Runs a tiny grid on the engine phantom (24³ voxels, 20² pixels) with `tables` after
+/// its `[set]`; returns the output folder.
+fn tiny_grid(dir: &Path, name: &str, tables: &str) -> PathBuf {
+    let exp = write_experiment(
+        dir,
+        name,
+        "phantom-engine.toml",
+        &format!(
+            "[set]\n\"volume.phantom.resolution\" = [24, 24, 24]\n\"camera.resolution\" = [20, 20]\n\"integrator.volume_photons\" = 3000\n\"integrator.stepsize\" = 0.01\n{tables}"
+        ),
+    );
+    let out = dir.join("out");
+    run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
+    out
+}
 
 /// Rows of a CSV file keyed by column name.
 fn rows(path: &Path) -> Vec<HashMap<String, String>> {
@@ -28,23 +44,15 @@ fn number(row: &HashMap<String, String>, column: &str) -> f64 {
 #[test]
 fn ms_share_plot_shows_the_multiple_cells_and_their_seed_spread() {
     let dir = tempfile::tempdir().unwrap();
-    let exp = write_experiment(
+    let out = tiny_grid(
         dir.path(),
         "ms",
-        "phantom-engine.toml",
-        r#"[set]
-"volume.phantom.resolution" = [24, 24, 24]
-"camera.resolution" = [20, 20]
-"integrator.volume_photons" = 3000
-"integrator.stepsize" = 0.01
-[axes]
+        r#"[axes]
 "sigma.t" = [10, 80]
 "integrator.multiple" = [false, true]
 "integrator.seed" = [1, 2]
 "#,
     );
-    let out = dir.path().join("out");
-    run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
     let cells = rows(&out.join("cells.csv"));
     for c in &cells {
         if c["integrator.multiple"] == "false" {
@@ -112,23 +120,15 @@ fn mean_of(cells: &[HashMap<String, String>], at: &[(&str, &str)], column: &str)
 #[test]
 fn the_report_says_what_each_axis_changed_and_by_how_much() {
     let dir = tempfile::tempdir().unwrap();
-    let exp = write_experiment(
+    let out = tiny_grid(
         dir.path(),
         "changes",
-        "phantom-engine.toml",
-        r#"[set]
-"volume.phantom.resolution" = [24, 24, 24]
-"camera.resolution" = [20, 20]
-"integrator.volume_photons" = 3000
-"integrator.stepsize" = 0.01
-[axes]
+        r#"[axes]
 "sigma.t" = [10, 80]
 "integrator.nused" = [10, 80]
 "integrator.seed" = [1, 2]
 "#,
     );
-    let out = dir.path().join("out");
-    run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
     let cells = rows(&out.join("cells.csv"));
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     let section = md
