@@ -145,6 +145,9 @@ fn config_name(config: BenchConfig) -> &'static str {
 
 /// Runs the benchmark.
 pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
+    if args.reference {
+        return super::bench_reference::run(args);
+    }
     let scene_path = headline(args);
     let (mut params, _) = crate::plan::load_scene(&scene_path)
         .with_context(|| format!("benchmark scene {}", scene_path.display()))?;

@@ -1,11 +1,13 @@
 //! One module per verb.
 
 mod bench;
+mod bench_reference;
 mod claims;
 mod datasets;
 mod export;
 mod import;
 mod index;
+mod machine;
 mod peer;
 mod pilot;
 mod plan;
