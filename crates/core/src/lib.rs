@@ -106,9 +106,9 @@ pub use scene::{
     Estimate, FilmParams, Incident, InitialRadius, IntegratorParams, Intensity, Light, LightKind,
     LightParams, MAX_MARCH_STEPS, Method, MitsubaExport, MsEstimator, NormalizeKind, PbrtImport,
     PhaseParams, PointLight, Quadrature, Scene, SceneParams, ShadowEstimator, SpotFalloff,
-    SpotLight, ThreePointParams, Unmapped, VolumeParams, build_medium, export_mitsuba, import_pbrt,
-    key_at, line_col, load_params, load_volume, locate, locate_error, three_point, toml_error,
-    validate_params,
+    SpotLight, ThreePointParams, Tracker, Unmapped, VolumeParams, build_medium, export_mitsuba,
+    import_pbrt, key_at, line_col, load_params, load_volume, locate, locate_error, three_point,
+    toml_error, validate_params,
 };
 pub use util::{
     TEXT_INPUT_CAP, byte_size, cache_dir, escaped_prefix, hostname, is_stale_temp,

@@ -96,7 +96,7 @@ pub(crate) enum Command {
     Index(IndexArgs),
     /// Benchmark the thesis's headline frame (foot, 512², 40 000 photons, nused 150).
     #[command(
-        after_help = "Example:\n  sweep bench --threads 2\n  sweep bench --quick          (a smaller frame on a phantom)"
+        after_help = "Example:\n  sweep bench --threads 2\n  sweep bench --quick          (a smaller frame on a phantom)\n  sweep bench --reference --json reports/bench/reference-thesis.json   (the path tracer's trackers)"
     )]
     Bench(BenchArgs),
     /// Find the best settings: Hyperband over resolution and photon count with tree-Parzen
@@ -464,7 +464,7 @@ pub(crate) struct BenchArgs {
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub(crate) runs: u32,
     /// Passes of the path tracer: in the efficiency comparison (default 16) and for the
-    /// converged reference of `--peer` (default 1024).
+    /// converged reference of `--peer`, `--estimators` and `--reference` (default 1024).
     #[arg(long, value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
     pub(crate) reference_passes: Option<u32>,
     /// Compare with a peer renderer instead: the scene exported, rendered by both at several
@@ -476,6 +476,24 @@ pub(crate) struct BenchArgs {
     /// whole image against a converged reference versus CPU-seconds.
     #[arg(long, conflicts_with = "peer")]
     pub(crate) estimators: bool,
+    /// Compare the path tracer's trackers instead (delta, the tracer before issue #47, and
+    /// weighted, the default): CPU time to RMSE 0.02 and 0.01 against a converged reference
+    /// kept in the reference pool, on the headline frame and the phantom head (or
+    /// `--scene`) at each `--sigma-t`.
+    #[arg(long, conflicts_with_all = ["peer", "estimators", "only"])]
+    pub(crate) reference: bool,
+    /// With `--reference`: the σt(d_min) values (comma-separated; the scenes' σ mapping
+    /// must be the thesis's).
+    #[arg(long, value_delimiter = ',', default_values_t = [80.0f32, 6.0], requires = "reference")]
+    pub(crate) sigma_t: Vec<f32>,
+    /// With `--reference`: passes of each measured render (the first is timed apart, as
+    /// it holds the weighted tracker's pilot).
+    #[arg(long, default_value_t = 32, requires = "reference", value_parser = clap::value_parser!(u32).range(2..=100_000))]
+    pub(crate) passes: u32,
+    /// With `--reference`: where converged references are kept and found again (default
+    /// reports/reference-pool, as `sweep run --reference-pool`).
+    #[arg(long, value_name = "DIR", requires = "reference")]
+    pub(crate) reference_pool: Option<PathBuf>,
     /// Python with Mitsuba 3 installed (default: $VOLPHOT_MITSUBA_PYTHON, else python3);
     /// `scripts/peer-mitsuba.sh` makes one.
     #[arg(long)]
@@ -628,10 +646,11 @@ fn backend(
 impl BenchArgs {
     /// The validated options of `sweep bench`.
     pub(crate) fn options(&self) -> BenchOptions {
-        let mode = match (self.peer, self.estimators) {
-            (Some(Peer::Mitsuba), _) => BenchMode::Peer,
-            (None, true) => BenchMode::Estimators,
-            (None, false) => BenchMode::Configurations,
+        let mode = match (self.peer, self.estimators, self.reference) {
+            (Some(Peer::Mitsuba), _, _) => BenchMode::Peer,
+            (None, true, _) => BenchMode::Estimators,
+            (None, false, true) => BenchMode::Reference,
+            (None, false, false) => BenchMode::Configurations,
         };
         BenchOptions {
             mode,
@@ -647,6 +666,9 @@ impl BenchArgs {
             resolution: self.resolution,
             peer_dir: self.peer_dir.clone(),
             json: self.json.clone(),
+            sigma_t: self.sigma_t.clone(),
+            passes: self.passes,
+            reference_pool: self.reference_pool.clone(),
         }
     }
 }

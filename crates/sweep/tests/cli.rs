@@ -360,3 +360,104 @@ fn bench_repeats_each_configuration_and_keeps_every_run() {
     assert_eq!(m["runs"].as_array().unwrap().len(), 1, "{m}");
     assert!(m["render"]["stddev"].is_null(), "no σ of one run: {m}");
 }
+
+/// A tiny scene for `bench --reference`: the thesis's σ mapping on a phantom.
+const BENCH_SCENE: &str = r#"
+[volume]
+phantom = { name = "sphere", resolution = [16, 16, 16], radius = 0.4 }
+[sigma]
+mapping = "thesis"
+t = 10
+[camera]
+resolution = [16, 16]
+[three_point]
+"#;
+
+#[test]
+fn bench_reference_compares_the_trackers_against_a_pooled_reference() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("s.toml");
+    std::fs::write(&scene, BENCH_SCENE).unwrap();
+    let (pool, json) = (tmp.path().join("pool"), tmp.path().join("b.json"));
+    let bench = |reference_passes: &str| {
+        let out = sweep()
+            .args(["bench", "--reference", "--sigma-t", "10", "--passes", "4"])
+            .args([
+                "--seeds",
+                "2",
+                "--reference-passes",
+                reference_passes,
+                "--scene",
+            ])
+            .arg(&scene)
+            .arg("--reference-pool")
+            .arg(&pool)
+            .arg("--json")
+            .arg(&json)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{err}");
+        err
+    };
+    let first = bench("16");
+    assert!(first.contains("0 → 16 passes"), "{first}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for key in ["cpu", "os", "rustc", "commit"] {
+        assert!(
+            report["machine"][key]
+                .as_str()
+                .is_some_and(|s| !s.is_empty()),
+            "machine.{key}: {report}"
+        );
+    }
+    assert!(report["machine"]["cores"].as_u64().unwrap() >= 1);
+    let case = &report["cases"][0];
+    assert_eq!(case["sigma_t"], 10.0);
+    assert_eq!(case["reference"]["passes"], 16);
+    let trackers: Vec<&str> = (case["trackers"].as_array().unwrap().iter())
+        .map(|t| t["tracker"].as_str().unwrap())
+        .collect();
+    assert_eq!(trackers, ["delta", "weighted"]);
+    for t in case["trackers"].as_array().unwrap() {
+        let targets: Vec<f64> = (t["cpu_to_rmse"].as_array().unwrap().iter())
+            .map(|r| r[0].as_f64().unwrap())
+            .collect();
+        assert_eq!(targets, [0.02, 0.01]);
+        assert_eq!(t["seeds"].as_array().unwrap().len(), 2);
+    }
+    // Found in the pool the second time; refined from there when more passes are asked.
+    let again = bench("16");
+    assert!(!again.contains("passes…"), "{again}");
+    let refined = bench("24");
+    assert!(refined.contains("16 → 24 passes"), "{refined}");
+}
+
+#[test]
+fn bench_reference_needs_the_thesis_mapping() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("s.toml");
+    let explicit = BENCH_SCENE.replace(
+        "mapping = \"thesis\"\nt = 10",
+        "mapping = \"explicit\"\nsigma_a = [1, 1, 1]\nsigma_s = [4, 4, 4]",
+    );
+    std::fs::write(&scene, explicit).unwrap();
+    let out = sweep()
+        .args(["bench", "--reference", "--sigma-t", "6", "--scene"])
+        .arg(&scene)
+        .arg("--reference-pool")
+        .arg(tmp.path().join("pool"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("s.toml") && err.contains("mapping = \"thesis\"") && err.contains("6"),
+        "{err}"
+    );
+    // The tracker comparison's options need `--reference`.
+    let out = sweep().args(["bench", "--sigma-t", "6"]).output().unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--reference"));
+}

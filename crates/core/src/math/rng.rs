@@ -21,6 +21,9 @@ pub enum Domain {
     Cache = 4,
     /// Tests and tools.
     Misc = 5,
+    /// The reference path tracer's pilot (per-pixel allocation), one stream per pixel and
+    /// sample, apart from the samples the estimate averages.
+    ReferencePilot = 6,
 }
 
 /// SplitMix64 finaliser: a bijective avalanche mix of 64 bits.

@@ -22,6 +22,7 @@ use volphot::{
 
 mod machine;
 mod peer;
+mod reference;
 
 pub(crate) use machine::Machine;
 
@@ -55,6 +56,8 @@ pub(crate) enum BenchMode {
     Peer,
     /// The multiple-scattering estimators against the path tracer.
     Estimators,
+    /// The path tracer's trackers against each other.
+    Reference,
 }
 
 /// The validated options of `sweep bench`.
@@ -86,6 +89,12 @@ pub(crate) struct BenchOptions {
     pub(crate) peer_dir: Option<PathBuf>,
     /// Where the measurements are written as JSON.
     pub(crate) json: Option<PathBuf>,
+    /// σt(d_min) values of the tracker comparison.
+    pub(crate) sigma_t: Vec<f32>,
+    /// Passes of each measured render of the tracker comparison.
+    pub(crate) passes: u32,
+    /// Where converged references are kept (the tracker comparison).
+    pub(crate) reference_pool: Option<PathBuf>,
 }
 
 /// Every configuration, in the order they run.
@@ -250,6 +259,9 @@ fn config_name(config: BenchConfig) -> &'static str {
 
 /// Runs the benchmark.
 pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
+    if args.mode == BenchMode::Reference {
+        return reference::run(args);
+    }
     let scene_path = headline(args);
     let (mut params, _) = crate::plan::load_scene(&scene_path)
         .with_context(|| format!("benchmark scene {}", scene_path.display()))?;
@@ -262,7 +274,7 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     match args.mode {
         BenchMode::Peer => return peer::run(args, &scene_path, &params),
         BenchMode::Estimators => return peer::run_estimators(args, &scene_path, &params),
-        BenchMode::Configurations => {}
+        BenchMode::Configurations | BenchMode::Reference => {}
     }
     let pool = crate::render::thread_pool(args.threads)?;
     let single_pool = crate::render::thread_pool(Some(1))?;

@@ -19,7 +19,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use volphot::{
     Control, Film, IntegratorParams, Layer, Method, MsEstimator, ReferenceAccumulator, Scene,
-    SceneParams, SearchPath, export_mitsuba, process_cpu_seconds, read_pfm,
+    SceneParams, SearchPath, Tracker, export_mitsuba, process_cpu_seconds, read_pfm,
 };
 
 use super::BenchOptions;
@@ -82,6 +82,14 @@ struct Row {
     mean_ratio: f64,
 }
 
+/// How many times as efficient (RMSE²·CPU-s) a volphot renderer is as Mitsuba.
+#[derive(Debug, Serialize)]
+struct Ratio {
+    part: Part,
+    renderer: String,
+    times_as_efficient: f64,
+}
+
 /// Mitsuba's mean against volphot's reference.
 #[derive(Debug, Serialize)]
 struct Agreement {
@@ -105,6 +113,8 @@ struct PeerReport {
     mitsuba_version: String,
     agreement: Vec<Agreement>,
     rows: Vec<Row>,
+    /// Per part, each path tracer's efficiency over Mitsuba's (empty without Mitsuba).
+    efficiency_vs_mitsuba: Vec<Ratio>,
 }
 
 /// One render reported by `peer_mitsuba.py`.
@@ -170,6 +180,7 @@ pub(crate) fn run(
             mitsuba_variant: first.variant.clone(),
             mitsuba_version: first.mitsuba.clone(),
             agreement,
+            efficiency_vs_mitsuba: efficiency_vs_mitsuba(&rows),
             rows,
         })
     })?;
@@ -210,6 +221,7 @@ pub(crate) fn run_estimators(
         mitsuba_version: String::new(),
         agreement: Vec::new(),
         rows,
+        efficiency_vs_mitsuba: Vec::new(),
     };
     print_rows(&report.rows);
     print_time_to_error(&report.rows);
@@ -474,6 +486,8 @@ fn cpu_timed<T>(f: impl FnOnce() -> Result<T>) -> Result<(T, f64)> {
     Ok((value, process_cpu_seconds().unwrap_or(start) - start))
 }
 
+/// The path tracer's rows: the default tracker (`volphot path`) and today's before issue
+/// #47 (`volphot path (delta)`), at each spp.
 fn path_rows(
     scene: &Scene,
     part: Part,
@@ -482,24 +496,53 @@ fn path_rows(
     seeds: u32,
 ) -> Result<Vec<Row>> {
     let mut rows = Vec::new();
-    for &spp in spps {
-        let runs = (0..seeds as u64)
-            .map(|k| {
-                let s = scene_for(scene, part, scene.integrator().seed.wrapping_add(1 + k))?;
-                let (film, cpu) =
-                    cpu_timed(|| Ok(volphot::render_reference(&s, spp, &Control::none())?.0))?;
-                Ok((part_of(&film, part), cpu))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        rows.push(row(
-            "volphot path",
-            part,
-            format!("{spp} spp"),
-            reference,
-            &runs,
-        ));
+    for (renderer, tracker) in [
+        ("volphot path", Tracker::Weighted),
+        ("volphot path (delta)", Tracker::Delta),
+    ] {
+        for &spp in spps {
+            let runs = (0..seeds as u64)
+                .map(|k| {
+                    let mut integrator = scene.integrator().clone();
+                    integrator.multiple = part == Part::All;
+                    integrator.seed = scene.integrator().seed.wrapping_add(1 + k);
+                    integrator.tracker = tracker;
+                    let s = scene.with_integrator(integrator)?;
+                    let (film, cpu) =
+                        cpu_timed(|| Ok(volphot::render_reference(&s, spp, &Control::none())?.0))?;
+                    Ok((part_of(&film, part), cpu))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            rows.push(row(renderer, part, format!("{spp} spp"), reference, &runs));
+        }
     }
     Ok(rows)
+}
+
+/// Per part, each volphot path tracer's efficiency (its best RMSE²·CPU-s) over Mitsuba's
+/// best: how many times less CPU it needs for the same error.
+fn efficiency_vs_mitsuba(rows: &[Row]) -> Vec<Ratio> {
+    let best = |part: Part, name: &dyn Fn(&str) -> bool| {
+        rows.iter()
+            .filter(|r| r.part == part && name(&r.renderer) && r.efficiency > 0.0)
+            .map(|r| r.efficiency)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut ratios = Vec::new();
+    for part in [Part::Single, Part::All] {
+        let mitsuba = best(part, &|r| r.starts_with("mitsuba"));
+        for renderer in ["volphot path", "volphot path (delta)"] {
+            let volphot = best(part, &|r| r == renderer);
+            if mitsuba.is_finite() && volphot.is_finite() {
+                ratios.push(Ratio {
+                    part,
+                    renderer: renderer.into(),
+                    times_as_efficient: mitsuba / volphot,
+                });
+            }
+        }
+    }
+    ratios
 }
 
 /// The photon-mapping integrator at the scene's settings and with 4× the photons.
@@ -586,6 +629,14 @@ fn print_report(r: &PeerReport) {
         );
     }
     print_rows(&r.rows);
+    for ratio in &r.efficiency_vs_mitsuba {
+        println!(
+            "{}, {}: {:.2}× Mitsuba's efficiency (best RMSE²·CPU-s of each)",
+            ratio.part.name(),
+            ratio.renderer,
+            ratio.times_as_efficient
+        );
+    }
 }
 
 fn print_rows(rows: &[Row]) {

@@ -52,7 +52,8 @@ pub(crate) fn ensure_reference(
             let resumed = existing
                 .map(|r| -> Result<_> {
                     let film = Film::read_exr(&dir.join("reference.exr"))?;
-                    Ok((ReferenceAccumulator::from_film(&film, r.passes)?, r.seconds))
+                    let acc = ReferenceAccumulator::resume(&scene, &film, r.passes)?;
+                    Ok((acc, r.seconds))
                 })
                 .transpose()?;
             let made = render(job, &scene, resumed, ctx, multi)?;

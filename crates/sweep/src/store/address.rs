@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use volphot::{Method, SceneParams};
+use volphot::{Method, SceneParams, Tracker};
 
 use super::VERSION;
 
@@ -42,6 +42,11 @@ pub(super) const ADDRESS_SHADOW_TOLERANCE: f32 = 0.05;
 /// with the old default [`ADDRESS_ALPHA`], so the change of default neither orphaned
 /// finished cells nor re-rendered references (an α set explicitly is addressed as set).
 ///
+/// The path tracer's `tracker` did not exist before `weighted` became the default (issue
+/// #47): an address leaves it out where it cannot change the image (photon mapping) and
+/// at `delta`, the tracer every earlier reference was rendered with, so those references
+/// keep their addresses and `weighted` ones get their own.
+///
 /// `thin_below` was left out of the parameters when 0 until it became the default (0.5),
 /// and `shadow_tolerance` did not exist until it became a setting (its value was 0.05): an
 /// address leaves each out at that old value, so cells rendered with it keep their
@@ -64,17 +69,33 @@ fn addressed(params: &SceneParams) -> Result<String> {
     if p.integrator.thin_below == 0.0 {
         text = without_field(&text, "thin_below", 0.0)?;
     }
+    if p.integrator.method != Method::Reference || p.integrator.tracker == Tracker::Delta {
+        text = without_text(
+            &text,
+            &format!(
+                ",\"tracker\":{}",
+                serde_json::to_string(&p.integrator.tracker)?
+            ),
+        )?;
+    }
     Ok(text)
+}
+
+/// `text` without its one occurrence of `field`.
+fn without_text(text: &str, field: &str) -> Result<String> {
+    anyhow::ensure!(
+        text.matches(field).count() == 1,
+        "cannot address a cell: expected one `{field}` in its parameters, found {text}"
+    );
+    Ok(text.replacen(field, "", 1))
 }
 
 /// `text` without its one `,"key":value` field.
 fn without_field(text: &str, key: &str, value: f32) -> Result<String> {
-    let field = format!(",\"{key}\":{}", serde_json::to_string(&value)?);
-    anyhow::ensure!(
-        text.matches(&field).count() == 1,
-        "cannot address a cell: expected one `{field}` in its parameters, found {text}"
-    );
-    Ok(text.replacen(&field, "", 1))
+    without_text(
+        text,
+        &format!(",\"{key}\":{}", serde_json::to_string(&value)?),
+    )
 }
 
 /// The content address of a cell: version, effective parameters, volume (and transfer
@@ -157,6 +178,33 @@ mod tests {
         std::fs::write(&file, [2u8; 8]).unwrap();
         let second = cell_hash(&p, tmp.path()).unwrap();
         assert_ne!(first, second);
+    }
+
+    #[test]
+    fn the_delta_tracker_and_photon_cells_keep_the_addresses_they_had_before_trackers() {
+        let base = Path::new(".");
+        let photon = params("");
+        assert!(!addressed(&photon).unwrap().contains("tracker"));
+        let mut photon_delta = photon.clone();
+        photon_delta.integrator.tracker = Tracker::Delta;
+        assert_eq!(
+            cell_hash(&photon, base).unwrap(),
+            cell_hash(&photon_delta, base).unwrap(),
+            "photon mapping does not trace paths"
+        );
+        let reference = |tracker: Tracker| {
+            let mut p = params("[integrator]\nmethod = \"reference\"\n");
+            p.integrator.tracker = tracker;
+            p
+        };
+        let delta = addressed(&reference(Tracker::Delta)).unwrap();
+        assert!(!delta.contains("tracker"), "{delta}");
+        let weighted = addressed(&reference(Tracker::Weighted)).unwrap();
+        assert!(weighted.contains("\"tracker\":\"weighted\""), "{weighted}");
+        assert_ne!(
+            reference_hash(&reference(Tracker::Delta), "v").unwrap(),
+            reference_hash(&reference(Tracker::Weighted), "v").unwrap()
+        );
     }
 
     #[test]

@@ -1,0 +1,375 @@
+//! `sweep bench --reference`: the path tracer's trackers side by side — CPU time to RMSE
+//! 0.02 and 0.01 on the headline frame and the phantom head at σt(d_min) 80 and 6.
+//!
+//! Per case, a converged reference (the default tracker at `--reference-passes`, with a
+//! seed no measured render uses) comes from the reference pool, rendered or refined there
+//! when the pool holds fewer passes. Each tracker then renders `--seeds` images of
+//! `--passes` passes; their mean squared error against the reference, with the
+//! reference's own noise removed (`mse_against_noisy_reference`), and their CPU-seconds
+//! give the time to an RMSE ε. Both trackers are unbiased, so the squared error falls as
+//! 1/passes: `passes(ε) = passes · MSE / ε²`, and `CPU(ε) = pilot + per_pass · passes(ε)`,
+//! where `pilot` is the weighted tracker's allocation pilot (measured as the first pass's
+//! CPU time less a pass's).
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, bail};
+use glam::Vec3;
+use serde::Serialize;
+use volphot::{
+    Control, IntegratorParams, MappingKind, Method, ReferenceAccumulator, Scene, SceneParams,
+    SearchPath, Tracker, process_cpu_seconds,
+};
+
+use super::{BenchOptions, Machine};
+use crate::analyse::mse_against_noisy_reference;
+use crate::plan::ReferenceMethod;
+use crate::store::{ReferencePool, ReferenceRecord, VERSION, reference_hash, volume_identity};
+
+/// The RMSEs the time is reported for.
+const TARGETS: [f64; 2] = [0.02, 0.01];
+/// The trackers compared, today's first.
+const TRACKERS: [Tracker; 2] = [Tracker::Delta, Tracker::Weighted];
+
+/// The benchmark's output.
+#[derive(Debug, Serialize)]
+struct Report {
+    machine: Machine,
+    command: Vec<String>,
+    threads: usize,
+    cases: Vec<Case>,
+}
+
+/// One scene at one σt(d_min).
+#[derive(Debug, Serialize)]
+struct Case {
+    scene: String,
+    sigma_t: f32,
+    resolution: [u32; 2],
+    reference: ReferenceInfo,
+    trackers: Vec<TrackerResult>,
+    /// CPU time to RMSE 0.01: delta's over weighted's.
+    speedup_at_001: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct ReferenceInfo {
+    key: String,
+    passes: u32,
+    tracker: Tracker,
+    /// The reference's own RMSE (square root of its mean variance of the mean).
+    rmse: f64,
+}
+
+/// One tracker's renders of a case.
+#[derive(Debug, Serialize)]
+struct TrackerResult {
+    tracker: Tracker,
+    passes: u32,
+    seeds: Vec<SeedRun>,
+    /// Means over the seeds.
+    pilot_cpu_s: f64,
+    cpu_per_pass_s: f64,
+    rmse: f64,
+    /// `[ε, CPU-seconds]` for each target RMSE ε.
+    cpu_to_rmse: Vec<[f64; 2]>,
+}
+
+/// One render: its seed, CPU time split into the first pass and the rest, and its error.
+#[derive(Debug, Serialize)]
+struct SeedRun {
+    seed: u64,
+    first_pass_cpu_s: f64,
+    other_passes_cpu_s: f64,
+    mse: f64,
+}
+
+/// The converged reference of a case: image (all layers) and variance of its mean.
+struct Reference {
+    image: Vec<Vec3>,
+    variance: Vec<Vec3>,
+    info: ReferenceInfo,
+}
+
+/// Runs the comparison.
+pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
+    if args.passes < 2 {
+        bail!(
+            "--passes {}: expected at least 2 (the first pass is timed apart)",
+            args.passes
+        );
+    }
+    let pool = ReferencePool::new(
+        args.reference_pool
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("reports/reference-pool")),
+    );
+    let threads = crate::render::thread_pool(args.threads)?;
+    let mut cases = Vec::new();
+    for scene_path in scenes(args) {
+        let (params, _) = crate::plan::load_scene(&scene_path)
+            .with_context(|| format!("benchmark scene {}", scene_path.display()))?;
+        for &t in &args.sigma_t {
+            let params = case_params(&params, t, args)
+                .with_context(|| format!("{} at σt(d_min) {t}", scene_path.display()))?;
+            let case = threads.install(|| measure_case(args, &scene_path, &params, t, &pool))?;
+            print_case(&case);
+            cases.push(case);
+        }
+    }
+    let report = Report {
+        machine: Machine::describe(),
+        command: std::env::args().collect(),
+        threads: threads.current_num_threads(),
+        cases,
+    };
+    print_summary(&report.cases);
+    if let Some(path) = &args.json {
+        volphot::write_atomic(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The scenes: `--scene`, or the headline frame and the phantom head.
+fn scenes(args: &BenchOptions) -> Vec<PathBuf> {
+    if let Some(s) = &args.scene {
+        return vec![s.clone()];
+    }
+    let local = Path::new("experiments/scenes");
+    let base = if local.is_dir() {
+        local.to_path_buf()
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/scenes")
+    };
+    ["foot.toml", "phantom-head.toml"]
+        .iter()
+        .map(|s| base.join(s))
+        .collect()
+}
+
+/// The scene at σt(d_min) = `t` (its σ mapping must be the thesis's) and the chosen size,
+/// rendering every layer with the path tracer.
+fn case_params(params: &SceneParams, t: f32, args: &BenchOptions) -> Result<SceneParams> {
+    let mut p = params.clone();
+    if p.sigma.mapping != MappingKind::Thesis {
+        bail!(
+            "--sigma-t sets σt(d_min), which needs [sigma] mapping = \"thesis\", not {:?}",
+            p.sigma.mapping
+        );
+    }
+    p.sigma.t = Some(t);
+    if args.quick {
+        p.camera.resolution = [128, 128];
+    }
+    if let Some(r) = args.resolution {
+        p.camera.resolution = r;
+    }
+    p.integrator = IntegratorParams {
+        method: Method::Reference,
+        single: true,
+        multiple: true,
+        seed: p.integrator.seed,
+        ..IntegratorParams::default()
+    };
+    volphot::validate_params(&p)?;
+    Ok(p)
+}
+
+/// `params` with another tracker and seed.
+fn with(params: &SceneParams, tracker: Tracker, seed: u64) -> SceneParams {
+    let mut p = params.clone();
+    p.integrator.tracker = tracker;
+    p.integrator.seed = seed;
+    p
+}
+
+/// The reference and both trackers' renders of one case.
+fn measure_case(
+    args: &BenchOptions,
+    scene_path: &Path,
+    params: &SceneParams,
+    sigma_t: f32,
+    pool: &ReferencePool,
+) -> Result<Case> {
+    let base = scene_path.parent().unwrap_or(Path::new("."));
+    let search = SearchPath::from_env();
+    let reference_params = with(
+        params,
+        Tracker::Weighted,
+        params.integrator.seed + 1_000_003,
+    );
+    let reference = pooled_reference(args, &reference_params, base, &search, pool)?;
+    let mut trackers = Vec::new();
+    for tracker in TRACKERS {
+        let runs = (0..u64::from(args.seeds))
+            .map(|k| {
+                let p = with(params, tracker, params.integrator.seed + 1 + k);
+                let scene = Scene::from_params(&p, base, &search)?;
+                scene.medium().prepare();
+                measure_render(&scene, args.passes, &reference)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        trackers.push(summarise(tracker, args.passes, runs));
+    }
+    let at = |t: &TrackerResult| t.cpu_to_rmse.last().map_or(f64::NAN, |r| r[1]);
+    Ok(Case {
+        scene: scene_path.display().to_string(),
+        sigma_t,
+        resolution: params.camera.resolution,
+        reference: reference.info,
+        speedup_at_001: at(&trackers[0]) / at(&trackers[1]),
+        trackers,
+    })
+}
+
+/// The pool's reference of `params` at `--reference-passes` (default 1024), rendered or
+/// refined there first when it holds fewer; a state with more passes is used as it is.
+fn pooled_reference(
+    args: &BenchOptions,
+    params: &SceneParams,
+    base: &Path,
+    search: &SearchPath,
+    pool: &ReferencePool,
+) -> Result<Reference> {
+    let passes = args.reference_passes.unwrap_or(1024);
+    let key = reference_hash(params, &volume_identity(params, base)?)?;
+    let _lock = pool.lock(&key)?;
+    let saved = pool.saved_state(&key).unwrap_or_else(|why| {
+        eprintln!("reference {key} in the pool is damaged ({why}); rendering it again");
+        None
+    });
+    let scene = Scene::from_params(params, base, search)?;
+    let (mut acc, mut seconds) = match &saved {
+        Some(record) => (pool.read_state(&key)?, record.seconds),
+        None => {
+            let [w, h] = params.camera.resolution;
+            (ReferenceAccumulator::new(w as usize, h as usize), 0.0)
+        }
+    };
+    if acc.passes() < passes {
+        eprintln!(
+            "bench reference: {key}, {} → {passes} passes…",
+            acc.passes()
+        );
+        seconds += acc.add_passes(&scene, passes - acc.passes(), &Control::none())?;
+        let record = ReferenceRecord {
+            files: Vec::new(),
+            key: key.clone(),
+            method: ReferenceMethod::Path,
+            passes: acc.passes(),
+            seconds,
+            scene: params.clone(),
+            volume: scene.volume_source().clone(),
+            version: VERSION.to_string(),
+        };
+        pool.keep_state(&key, &acc, record)?;
+    }
+    let variance = acc
+        .total_variance()
+        .context("the reference's total variance")?;
+    let rmse = (variance.iter().map(|v| mean3(*v)).sum::<f64>() / variance.len() as f64).sqrt();
+    Ok(Reference {
+        image: acc.film().total(),
+        info: ReferenceInfo {
+            key,
+            passes: acc.passes(),
+            tracker: params.integrator.tracker,
+            rmse,
+        },
+        variance,
+    })
+}
+
+/// One render of `passes` passes, its first pass (with any pilot) timed apart.
+fn measure_render(scene: &Scene, passes: u32, reference: &Reference) -> Result<SeedRun> {
+    let cpu = || process_cpu_seconds().context("CPU time is not available here");
+    let camera = scene.camera();
+    let mut acc = ReferenceAccumulator::new(camera.width() as usize, camera.height() as usize);
+    let start = cpu()?;
+    acc.add_passes(scene, 1, &Control::none())?;
+    let first = cpu()?;
+    acc.add_passes(scene, passes - 1, &Control::none())?;
+    let end = cpu()?;
+    let image = acc.film().total();
+    Ok(SeedRun {
+        seed: scene.integrator().seed,
+        first_pass_cpu_s: first - start,
+        other_passes_cpu_s: end - first,
+        mse: mse_against_noisy_reference(&image, &reference.image, &reference.variance),
+    })
+}
+
+/// Means over the seeds and the extrapolated CPU time to each target RMSE.
+fn summarise(tracker: Tracker, passes: u32, seeds: Vec<SeedRun>) -> TrackerResult {
+    let n = seeds.len() as f64;
+    let mean = |f: &dyn Fn(&SeedRun) -> f64| seeds.iter().map(f).sum::<f64>() / n;
+    let per_pass = mean(&|s| s.other_passes_cpu_s) / f64::from(passes - 1);
+    let pilot = (mean(&|s| s.first_pass_cpu_s) - per_pass).max(0.0);
+    let mse = mean(&|s| s.mse).max(0.0);
+    let cpu_to_rmse = TARGETS
+        .iter()
+        .map(|&e| [e, pilot + per_pass * f64::from(passes) * mse / (e * e)])
+        .collect();
+    TrackerResult {
+        tracker,
+        passes,
+        pilot_cpu_s: pilot,
+        cpu_per_pass_s: per_pass,
+        rmse: mse.sqrt(),
+        cpu_to_rmse,
+        seeds,
+    }
+}
+
+fn mean3(v: Vec3) -> f64 {
+    (f64::from(v.x) + f64::from(v.y) + f64::from(v.z)) / 3.0
+}
+
+fn print_case(case: &Case) {
+    println!(
+        "{} at {}×{}, σt(d_min) {}: reference {} passes ({:?}, RMSE {:.2e})",
+        case.scene,
+        case.resolution[0],
+        case.resolution[1],
+        case.sigma_t,
+        case.reference.passes,
+        case.reference.tracker,
+        case.reference.rmse
+    );
+    println!(
+        "  {:<9} {:>6} {:>9} {:>11} {:>10} {:>13} {:>13}",
+        "tracker", "passes", "pilot s", "CPU s/pass", "RMSE", "CPU s → 0.02", "CPU s → 0.01"
+    );
+    for t in &case.trackers {
+        println!(
+            "  {:<9} {:>6} {:>9.2} {:>11.3} {:>10.3e} {:>13.1} {:>13.1}",
+            format!("{:?}", t.tracker).to_lowercase(),
+            t.passes,
+            t.pilot_cpu_s,
+            t.cpu_per_pass_s,
+            t.rmse,
+            t.cpu_to_rmse[0][1],
+            t.cpu_to_rmse[1][1]
+        );
+    }
+    println!(
+        "  weighted is {:.2}× as fast to RMSE 0.01",
+        case.speedup_at_001
+    );
+}
+
+fn print_summary(cases: &[Case]) {
+    println!("CPU time to RMSE 0.01, delta → weighted:");
+    for c in cases {
+        let at = |i: usize| c.trackers[i].cpu_to_rmse[1][1];
+        println!(
+            "  {:<40} σt {:>4}: {:>8.1} s → {:>8.1} s ({:.2}×)",
+            c.scene,
+            c.sigma_t,
+            at(0),
+            at(1),
+            c.speedup_at_001
+        );
+    }
+}
