@@ -79,7 +79,7 @@ pub use integrator::{
     CACHE_TAU_MAX, CacheError, ErrorBound, EyeProbe, MAX_VERTICES, MarchOutput, MarchStats,
     MsVariant, ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, StopReason,
     ThinningError, error_probe_pixels, next_radius, probe_eye_rays, progress_rows, render_march,
-    render_march_beams, render_progressive, render_reference,
+    render_march_beams, render_march_planes, render_progressive, render_reference,
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
 pub use medium::{
@@ -91,7 +91,8 @@ pub use medium::{
 };
 pub use photon::{
     BeamMap, BeamRadius, Crossing, GatherScratch, GatherVariant, Gathered, MAX_INTERACTIONS,
-    Photon, PhotonMap, PhotonStats, TraceSettings, photons_per_light, trace,
+    Photon, PhotonMap, PhotonPlane, PhotonStats, PlaneCrossing, PlaneMap, TraceSettings,
+    photons_per_light, trace, trace_planes,
 };
 pub use render::{
     Provenance, RenderOutput, RenderRecord, SharedFilm, SharedRender, Timings, build_photon_map,

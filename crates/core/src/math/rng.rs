@@ -21,6 +21,8 @@ pub enum Domain {
     Cache = 4,
     /// Tests and tools.
     Misc = 5,
+    /// Photon planes: the draws a plane adds to its photon's path, one stream per photon.
+    Planes = 6,
 }
 
 /// SplitMix64 finaliser: a bijective avalanche mix of 64 bits.

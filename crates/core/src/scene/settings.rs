@@ -21,8 +21,8 @@
 //! | `spp` | 1 | one jittered eye ray per pixel, as the thesis |
 //! | `reference_spp` | 64 | reference path tracer samples per pixel |
 //! | `seed` | 1 | |
-//! | `estimator` | `points` | the thesis's k-NN point estimate; `progressive` and `beam` are consistent / stepsize-free alternatives |
-//! | `alpha` | 0.3 | radius shrink per iteration: `((i+α)/(i+1))^{1/3}` for points (3-D kernel), `^{1/2}` for beams (a 2-D kernel across the ray) |
+//! | `estimator` | `points` | the thesis's k-NN point estimate; `progressive`, `beam` and `plane` are consistent / stepsize-free alternatives |
+//! | `alpha` | 0.3 | radius shrink per iteration: `((i+α)/(i+1))^{1/3}` for points (3-D kernel), `^{1/2}` for beams (a 2-D kernel across the ray), `^1` for planes (a 1-D blur) |
 //! | `iterations`, `photons_per_iteration`, `time_budget` | 16, 0 (= `volume_photons`), 0 (none) | progressive and beam: independent photon maps averaged (beam with 1: the plain beam estimate) |
 //! | `target_rmse` | 0 (off) | progressive and beam: stop after the iteration whose image is within this RMSE of the reference (in an experiment with `[reference]`) |
 //! | `initial_radius` | `nused` | progressive: median `nused`-th-neighbour distance of the first map; beam: each photon's own `nused`-th-neighbour distance (or `maxdist` for both) |
@@ -128,6 +128,14 @@ pub enum MsEstimator {
     /// every photon whose sphere an eye ray crosses, weighted by the exact eye
     /// transmittance over its chord; no `stepsize` and no k-NN query per sample.
     Beam,
+    /// Photon planes with a 1-D blur (Bitterli & Jarosz 2017, "Beyond points and beams"):
+    /// each flight of a photon path swept along the direction sampled at its end, met by
+    /// the eye ray at a point — both free flights integrated, no density estimate. In a
+    /// heterogeneous medium the plane ends at the flight's delta-tracked interaction and,
+    /// along its second direction, where the exact optical depth passes one sampled
+    /// `τ* ~ Exp(1)`: unbiased transmittance both ways. The blur half-width starts at
+    /// `maxdist` and shrinks by `(i + α)/(i + 1)` per iteration (a 1-D kernel).
+    Plane,
 }
 
 /// Where the progressive estimate's first radius comes from.
@@ -411,8 +419,28 @@ impl IntegratorParams {
                 "0 with estimator = \"points\" (only the progressive and beam estimators iterate towards a target)",
             ));
         }
-        if self.estimator == MsEstimator::Beam {
-            self.validate_beam()?;
+        match self.estimator {
+            MsEstimator::Beam => self.validate_beam(),
+            MsEstimator::Plane => self.validate_plane(),
+            MsEstimator::Points | MsEstimator::Progressive => Ok(()),
+        }
+    }
+
+    /// What photon planes cannot combine with.
+    fn validate_plane(&self) -> Result<()> {
+        if self.free_path != FreePath::Delta {
+            return Err(Error::parameter(
+                "free_path",
+                format!("{:?}", self.free_path).to_lowercase(),
+                "`delta` with estimator = \"plane\" (a plane ends at its flight's sampled interaction, which stands in for the transmittance only when the free path is sampled exactly)",
+            ));
+        }
+        if self.ms_cache > 0 {
+            return Err(Error::parameter(
+                "ms_cache",
+                self.ms_cache,
+                "0 with estimator = \"plane\" (photon planes have no per-sample gathers to cache)",
+            ));
         }
         Ok(())
     }
