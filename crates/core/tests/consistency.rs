@@ -5,9 +5,9 @@
 use volphot::test_util as common;
 
 use volphot::{
-    BeamMap, BeamRadius, Control, Estimate, InitialRadius, IntegratorParams, Layer, MsEstimator,
-    MsVariant, Scene, build_photon_map, mean_rgb, render, render_march, render_march_beams,
-    render_reference,
+    BeamMap, BeamRadius, Control, Estimate, EyeRays, InitialRadius, IntegratorParams, Layer,
+    MsEstimator, MsVariant, Scene, build_photon_map, mean_rgb, render, render_march,
+    render_march_beams, render_reference,
 };
 
 /// The shared spot-lit sphere (σt = 3, albedo 0.8) at 16×16, multiple scattering only.
@@ -275,4 +275,39 @@ fn a_target_error_stops_the_iterations_and_every_error_is_recorded() {
     points.target_rmse = 0.01;
     let e = points.validate().unwrap_err().to_string();
     assert!(e.contains("target_rmse") && e.contains("points"), "{e}");
+}
+
+/// Replayed eye rays converge to the estimate of the first iteration's rays, whose pixel
+/// sampling error never falls; fresh eye rays average it away: at 64 iterations the fresh
+/// image is far closer to the reference. Their first iteration is the same render.
+#[test]
+fn fresh_eye_rays_converge_where_replayed_ones_stop() {
+    let scene = sphere();
+    let reference = reference(&scene, 8192);
+    let render_with = |eye_rays, iterations| {
+        let s = with(&scene, |s| {
+            s.estimator = MsEstimator::Beam;
+            s.iterations = iterations;
+            s.photons_per_iteration = 5_000;
+            s.nused = 50;
+            s.eye_rays = eye_rays;
+        });
+        let out = render(&s, &Control::none()).unwrap();
+        out.film.layer(Layer::Multiple).to_vec()
+    };
+    let (replayed, fresh) = (
+        render_with(EyeRays::Replayed, 1),
+        render_with(EyeRays::Fresh, 1),
+    );
+    assert_eq!(
+        replayed, fresh,
+        "the first iteration does not depend on later ones"
+    );
+    let error = |image: &[glam::Vec3]| excess_error(image, &reference.0, reference.1);
+    let replayed = error(&render_with(EyeRays::Replayed, 64));
+    let fresh = error(&render_with(EyeRays::Fresh, 64));
+    eprintln!(
+        "64 iterations, rRMSE beyond the reference's noise: replayed {replayed:.4}, fresh {fresh:.4}"
+    );
+    assert!(fresh < 0.6 * replayed, "replayed {replayed}, fresh {fresh}");
 }

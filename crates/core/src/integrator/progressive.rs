@@ -36,7 +36,7 @@ use crate::film::{Film, Layer};
 use crate::photon::{
     BeamMap, PhotonMap, PhotonPlane, PhotonStats, PlaneMap, TraceSettings, trace, trace_planes,
 };
-use crate::scene::{InitialRadius, IntegratorParams, Method, MsEstimator, Scene};
+use crate::scene::{EyeRays, InitialRadius, IntegratorParams, Method, MsEstimator, Scene};
 
 /// What a progressive render did.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -166,6 +166,7 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
                 Measure::Skip
             },
             eye: match (&eye_samples, i) {
+                _ if s.eye_rays == EyeRays::Fresh => EyeSamples::March,
                 (Some(store), _) => EyeSamples::Replay(store),
                 (None, 1) if s.iterations > 1 => EyeSamples::Record,
                 (None, _) => EyeSamples::March,
@@ -194,6 +195,9 @@ struct Iterations {
     first_error: Option<CacheError>,
     /// The sum of the iterations' multiple layers.
     multiple_sum: Vec<Vec3>,
+    /// With fresh eye rays: the sums of the iterations' single and emission layers.
+    single_sum: Vec<Vec3>,
+    emission_sum: Vec<Vec3>,
     /// With a reference: the first march's direct layers, the part of the image that no
     /// later iteration changes.
     direct: Vec<Vec3>,
@@ -230,6 +234,10 @@ impl Iterations {
         stats.stored_power.push(traced.stats().stored_power);
         stats.iterations = i;
         accumulate(&mut self.multiple_sum, pass.film.layer(Layer::Multiple));
+        if s.eye_rays == EyeRays::Fresh {
+            accumulate(&mut self.single_sum, pass.film.layer(Layer::Single));
+            accumulate(&mut self.emission_sum, pass.film.layer(Layer::Emission));
+        }
         if i == 1 {
             self.first_march = pass.march;
             self.first_error = pass.cache_error;
@@ -250,7 +258,7 @@ impl Iterations {
         start: Instant,
     ) -> Option<StopReason> {
         if let Some(reference) = control.reference() {
-            let error = crate::film::rmse(&self.image(), reference);
+            let error = crate::film::rmse(&self.image(s.emission), reference);
             self.stats.errors.push(error);
             if s.target_rmse > 0.0 && error <= s.target_rmse as f64 {
                 return Some(StopReason::TargetRmse);
@@ -261,24 +269,38 @@ impl Iterations {
         out_of_time.then_some(StopReason::TimeBudget)
     }
 
-    /// The image after the iterations so far, for a reference: the first march's direct
-    /// layers plus the mean multiple layer.
-    fn image(&self) -> Vec<Vec3> {
+    /// The image after the iterations so far, for a reference: the direct layers (the
+    /// first march's, or their mean with fresh eye rays; emission when `emission`) plus the
+    /// mean multiple layer.
+    fn image(&self, emission: bool) -> Vec<Vec3> {
         let n = self.stats.iterations as f32;
+        let direct = |k: usize| {
+            if self.single_sum.is_empty() {
+                return self.direct[k];
+            }
+            let glow = if emission {
+                self.emission_sum[k]
+            } else {
+                Vec3::ZERO
+            };
+            (self.single_sum[k] + glow) / n
+        };
         (0..self.multiple_sum.len())
-            .map(|k| self.direct[k] + self.multiple_sum[k] / n)
+            .map(|k| direct(k) + self.multiple_sum[k] / n)
             .collect()
     }
 
-    /// The image (the first iteration's direct layers, the mean multiple layer) and what
-    /// the iterations did.
+    /// The image (the first iteration's direct layers, or their mean with fresh eye rays;
+    /// the mean multiple layer) and what the iterations did.
     fn finish(self) -> ProgressiveOutput {
         let mut film = self.film.expect("at least one iteration");
         let n = self.stats.iterations as f32;
-        film.set_layer(
-            Layer::Multiple,
-            self.multiple_sum.iter().map(|v| *v / n).collect(),
-        );
+        let mean = |sum: &[Vec3]| sum.iter().map(|v| *v / n).collect();
+        film.set_layer(Layer::Multiple, mean(&self.multiple_sum));
+        if !self.single_sum.is_empty() {
+            film.set_layer(Layer::Single, mean(&self.single_sum));
+            film.set_layer(Layer::Emission, mean(&self.emission_sum));
+        }
         ProgressiveOutput {
             film,
             march: self.first_march,
@@ -446,11 +468,16 @@ fn march_iteration(
 }
 
 /// The settings of iteration `i`'s march: after the first, the multiple layer alone at the
-/// same eye rays.
+/// same eye rays — or, with fresh eye rays, every layer at eye rays of their own (the
+/// pixels' streams are keyed by the seed).
 fn iteration_settings(s: &IntegratorParams, i: u32) -> IntegratorParams {
     let mut settings = s.clone();
-    if i > 1 {
-        (settings.single, settings.emission) = (false, false);
+    if i == 1 {
+        return settings;
+    }
+    match s.eye_rays {
+        EyeRays::Replayed => (settings.single, settings.emission) = (false, false),
+        EyeRays::Fresh => settings.seed = crate::math::mix64(s.seed ^ ((i as u64) << 32)),
     }
     settings
 }

@@ -25,6 +25,7 @@
 //! | `alpha` | 0.3 | radius shrink per iteration: `((i+α)/(i+1))^{1/3}` for points (3-D kernel), `^{1/2}` for beams (a 2-D kernel across the ray), `^1` for planes (a 1-D blur) |
 //! | `iterations`, `photons_per_iteration`, `time_budget` | 16, 0 (= `volume_photons`), 0 (none) | progressive and beam: independent photon maps averaged (beam with 1: the plain beam estimate) |
 //! | `target_rmse` | 0 (off) | progressive and beam: stop after the iteration whose image is within this RMSE of the reference (in an experiment with `[reference]`) |
+//! | `eye_rays` | `replayed` | progressive, beam and plane: later iterations shade the first one's eye samples; `fresh` draws new eye rays every iteration and averages every layer (converges per pixel, a full march per iteration) |
 //! | `initial_radius` | `nused` | progressive: median `nused`-th-neighbour distance of the first map; beam: each photon's own `nused`-th-neighbour distance (or `maxdist` for both) |
 //! | `film.exposure` | 0 | stops applied before sRGB encoding |
 
@@ -149,6 +150,22 @@ pub enum InitialRadius {
     Nused,
 }
 
+/// Which eye rays the iterations of a progressive, beam or plane render shade.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EyeRays {
+    /// The first iteration's: later iterations shade its eye samples again with their own
+    /// photons, and the single and emission layers come from the first march alone. Cheap
+    /// (no march after the first), but the image converges to the estimate of those fixed
+    /// rays, so each pixel keeps the sampling error of its `spp` jittered rays.
+    #[default]
+    Replayed,
+    /// New jittered eye rays every iteration (stochastic progressive photon mapping,
+    /// Hachisuka & Jensen 2009): every layer is the mean over the iterations, so the image
+    /// converges to each pixel's integral, at the cost of a full march per iteration.
+    Fresh,
+}
+
 /// Which renderer produces the image.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -232,6 +249,14 @@ pub struct IntegratorParams {
     pub target_rmse: f32,
     /// Progressive: where the first radius comes from.
     pub initial_radius: InitialRadius,
+    /// Progressive, beam and plane: which eye rays the iterations shade. Not written when
+    /// `replayed`, so the content addresses of cells that do not set it stay what they were.
+    #[serde(skip_serializing_if = "is_replayed")]
+    pub eye_rays: EyeRays,
+}
+
+fn is_replayed(e: &EyeRays) -> bool {
+    *e == EyeRays::Replayed
 }
 
 fn is_zero(x: &f32) -> bool {
@@ -269,6 +294,7 @@ impl Default for IntegratorParams {
             time_budget: 0.0,
             target_rmse: 0.0,
             initial_radius: InitialRadius::Nused,
+            eye_rays: EyeRays::Replayed,
         }
     }
 }
