@@ -102,10 +102,10 @@ pub use scene::{
     BoxParams, Camera, CameraParams, DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW,
     Estimate, EyeRays, FilmParams, Incident, InitialRadius, IntegratorParams, Intensity, Light,
     LightKind, LightParams, MAX_MARCH_STEPS, Method, MitsubaExport, MsEstimator, NormalizeKind,
-    PbrtImport, PhaseParams, PointLight, Quadrature, Scene, SceneParams, ShadowEstimator,
-    SpotFalloff, SpotLight, ThreePointParams, Unmapped, VolumeParams, build_medium, export_mitsuba,
-    import_pbrt, key_at, line_col, load_params, load_volume, locate, locate_error, three_point,
-    toml_error, validate_params,
+    PbrtImport, PhaseParams, PointLight, Quadrature, RadiusRule, Scene, SceneParams,
+    ShadowEstimator, SpotFalloff, SpotLight, ThreePointParams, Unmapped, VolumeParams,
+    build_medium, export_mitsuba, import_pbrt, key_at, line_col, load_params, load_volume, locate,
+    locate_error, three_point, toml_error, validate_params,
 };
 pub use util::{
     TEXT_INPUT_CAP, byte_size, cache_dir, escaped_prefix, hostname, is_stale_temp,

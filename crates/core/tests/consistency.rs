@@ -6,7 +6,7 @@ use volphot::test_util as common;
 
 use volphot::{
     BeamMap, BeamRadius, Control, Estimate, EyeRays, InitialRadius, IntegratorParams, Layer,
-    MsEstimator, MsVariant, Scene, build_photon_map, mean_rgb, render, render_march,
+    MsEstimator, MsVariant, RadiusRule, Scene, build_photon_map, mean_rgb, render, render_march,
     render_march_beams, render_reference,
 };
 
@@ -112,17 +112,30 @@ fn convergence(
     reference: &(Vec<glam::Vec3>, f64),
     estimator: MsEstimator,
 ) -> (Vec<f64>, f64) {
+    converging(scene, reference, &format!("{estimator:?}"), |s| {
+        s.estimator = estimator;
+        s.photons_per_iteration = 20_000;
+        s.nused = 50;
+        s.maxdist = 0.2;
+        s.initial_radius = InitialRadius::Nused;
+    })
+}
+
+/// Errors beyond the reference's noise after 1, 4, 16 and 64 iterations of the settings
+/// `configure` makes, and the final mean ratio.
+fn converging(
+    scene: &Scene,
+    reference: &(Vec<glam::Vec3>, f64),
+    name: &str,
+    configure: impl Fn(&mut IntegratorParams),
+) -> (Vec<f64>, f64) {
     let (ref_multiple, noise) = reference;
     let mut errors = Vec::new();
     let mut ratio = 0.0;
     for iterations in [1, 4, 16, 64] {
         let scene = with(scene, |s| {
-            s.estimator = estimator;
+            configure(s);
             s.iterations = iterations;
-            s.photons_per_iteration = 20_000;
-            s.nused = 50;
-            s.maxdist = 0.2;
-            s.initial_radius = InitialRadius::Nused;
         });
         let out = render(&scene, &Control::none()).unwrap();
         let stats = out.record.progressive.as_ref().unwrap();
@@ -133,7 +146,7 @@ fn convergence(
         ratio = mean_rgb(multiple) / mean_rgb(ref_multiple);
     }
     eprintln!(
-        "{estimator:?}: rRMSE beyond reference noise {noise:.4} at 1/4/16/64 iterations \
+        "{name}: rRMSE beyond reference noise {noise:.4} at 1/4/16/64 iterations \
          {errors:?}, final mean ratio {ratio:.4}"
     );
     (errors, ratio)
@@ -310,4 +323,49 @@ fn fresh_eye_rays_converge_where_replayed_ones_stop() {
         "64 iterations, rRMSE beyond the reference's noise: replayed {replayed:.4}, fresh {fresh:.4}"
     );
     assert!(fresh < 0.6 * replayed, "replayed {replayed}, fresh {fresh}");
+}
+
+/// With fresh eye rays every radius rule of the progressive points and the beams, and the
+/// photon planes, converge to the reference: the error beyond its noise falls at every
+/// fourfold of the iterations, and the final mean is the reference's.
+#[test]
+fn radius_rules_and_planes_converge_with_fresh_eye_rays() {
+    for (name, scene) in [("sphere", sphere()), ("two-slab", common::scene(TWO_SLAB))] {
+        let reference = reference(&scene, 8192);
+        let mut runs: Vec<(String, (Vec<f64>, f64))> = Vec::new();
+        for estimator in [MsEstimator::Progressive, MsEstimator::Beam] {
+            for rule in [
+                RadiusRule::Global,
+                RadiusRule::Nearest,
+                RadiusRule::Balanced,
+            ] {
+                let label = format!("{name} {estimator:?} {rule:?}");
+                let run = converging(&scene, &reference, &label, |s| {
+                    s.estimator = estimator;
+                    s.radius = Some(rule);
+                    s.eye_rays = EyeRays::Fresh;
+                    s.photons_per_iteration = 5_000;
+                    s.nused = 50;
+                    s.maxdist = 0.2;
+                });
+                runs.push((label, run));
+            }
+        }
+        let label = format!("{name} Plane");
+        let planes = converging(&scene, &reference, &label, |s| {
+            s.estimator = MsEstimator::Plane;
+            s.eye_rays = EyeRays::Fresh;
+            s.photons_per_iteration = 1_000;
+            s.maxdist = 0.01;
+        });
+        runs.push((label, planes));
+        for (label, (errors, ratio)) in runs {
+            assert!(errors[0] / errors[3] > 2.0, "{label}: {errors:?}");
+            assert!(
+                errors.windows(2).all(|w| w[0] > w[1]),
+                "{label}: {errors:?}"
+            );
+            assert!((ratio - 1.0).abs() < 0.03, "{label}: mean ratio {ratio}");
+        }
+    }
 }

@@ -105,6 +105,7 @@ impl Marcher<'_> {
             match self.source {
                 MsSource::Gathers => self.add_multiple(wo, &bands, acc),
                 MsSource::Beams(beams) => self.add_beams(beams, ray, acc),
+                MsSource::Spheres(spheres) => self.add_spheres(spheres, wo, acc),
                 MsSource::Planes(planes) => self.add_planes(planes, ray, rng, acc),
             }
         }

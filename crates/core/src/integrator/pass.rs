@@ -139,6 +139,9 @@ pub(super) enum MsSource<'a> {
     Gathers,
     /// The beam radiance estimate over photons as spheres.
     Beams(&'a BeamMap<'a>),
+    /// The point estimate with each photon's own radius (sample-point kernels) at every
+    /// marching sample.
+    Spheres(&'a BeamMap<'a>),
     /// Photon planes.
     Planes(&'a PlaneMap<'a>),
 }

@@ -36,7 +36,9 @@ use crate::film::{Film, Layer};
 use crate::photon::{
     BeamMap, PhotonMap, PhotonPlane, PhotonStats, PlaneMap, TraceSettings, trace, trace_planes,
 };
-use crate::scene::{EyeRays, InitialRadius, IntegratorParams, Method, MsEstimator, Scene};
+use crate::scene::{
+    EyeRays, InitialRadius, IntegratorParams, Method, MsEstimator, RadiusRule, Scene,
+};
 
 /// What a progressive render did.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -152,6 +154,7 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
         if let (1, Traced::Map(map)) = (i, &traced)
             && s.initial_radius == InitialRadius::Nused
             && s.estimator == MsEstimator::Progressive
+            && !per_photon_points(&s)
         {
             radius = median_nused_distance(map, s.nused, s.maxdist);
         }
@@ -335,8 +338,18 @@ fn check_reference(scene: &Scene, s: &IntegratorParams, control: &Control<'_>) -
 fn first_radius(s: &IntegratorParams) -> f32 {
     match s.estimator {
         MsEstimator::Beam => 1.0,
+        MsEstimator::Progressive if per_photon_points(s) => 1.0,
         MsEstimator::Points | MsEstimator::Progressive | MsEstimator::Plane => s.maxdist,
     }
+}
+
+/// Whether the progressive point estimate sizes its kernels per photon (a `nearest` or
+/// `balanced` radius rule from the `nused`-th neighbours): then its "radius" is the scale
+/// of the photons' own radii, as for the beams.
+fn per_photon_points(s: &IntegratorParams) -> bool {
+    s.estimator == MsEstimator::Progressive
+        && s.initial_radius == InitialRadius::Nused
+        && matches!(s.radius, Some(RadiusRule::Nearest | RadiusRule::Balanced))
 }
 
 /// What one iteration traced: a photon map, or the paths' flights as planes.
@@ -442,11 +455,14 @@ fn march_iteration(
         }
         Traced::Map(map) => map,
     };
-    if s.estimator == MsEstimator::Beam {
+    if s.estimator == MsEstimator::Beam || per_photon_points(s) {
         let start = Instant::now();
         let beams = BeamMap::new(map, beam_radius(s, radius), scene.medium(), beam_masked(s));
         let build_seconds = start.elapsed().as_secs_f64();
-        let source = MsSource::Beams(&beams);
+        let source = match s.estimator {
+            MsEstimator::Beam => MsSource::Beams(&beams),
+            _ => MsSource::Spheres(&beams),
+        };
         let (out, eye_samples) = photons_measured(&scene, source, control, measure, eye)?;
         // The hierarchy is a search structure built once per map, like a kd-tree: its
         // time is the tree's, not the march's (which scales with the pixels).
@@ -551,6 +567,7 @@ mod tests {
             if let (1, Traced::Map(m)) = (i, &map)
                 && s.initial_radius == InitialRadius::Nused
                 && s.estimator == MsEstimator::Progressive
+                && !per_photon_points(&s)
             {
                 radius = median_nused_distance(m, s.nused, s.maxdist);
             }

@@ -59,7 +59,7 @@ pub use params::{
 pub use pbrt::{PbrtImport, Unmapped, import_pbrt};
 pub use settings::{
     DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW, Estimate, EyeRays, FilmParams,
-    InitialRadius, IntegratorParams, Method, MsEstimator, Quadrature, ShadowEstimator,
+    InitialRadius, IntegratorParams, Method, MsEstimator, Quadrature, RadiusRule, ShadowEstimator,
 };
 
 use crate::error::Result;
