@@ -158,7 +158,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
         return super::peer::run(args, &scene_path, &params);
     }
     if args.estimators {
-        return super::peer::run_estimators(args, &scene_path, &params);
+        return super::estimators::run(args, &scene_path, &params);
     }
     let pool = crate::render::thread_pool(args.threads)?;
     let single_pool = crate::render::thread_pool(Some(1))?;

@@ -3,6 +3,7 @@
 mod bench;
 mod claims;
 mod datasets;
+mod estimators;
 mod export;
 mod import;
 mod index;

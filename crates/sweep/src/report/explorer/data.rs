@@ -262,10 +262,7 @@ fn binned<T: Copy + Default + std::ops::Add<Output = T> + std::ops::Mul<f32, Out
 type PackedLayers = BTreeMap<&'static str, Option<String>>;
 
 /// Every layer of a film, binned and packed; returns them and the binned size.
-fn packed_layers(
-    film: &Film,
-    bin: usize,
-) -> Result<(PackedLayers, [usize; 2])> {
+fn packed_layers(film: &Film, bin: usize) -> Result<(PackedLayers, [usize; 2])> {
     let size = [film.width(), film.height()];
     let mut layers = BTreeMap::new();
     let mut out_size = size;
