@@ -342,7 +342,7 @@ fn radius_rules_and_planes_converge_with_fresh_eye_rays() {
                 let label = format!("{name} {estimator:?} {rule:?}");
                 let run = converging(&scene, &reference, &label, |s| {
                     s.estimator = estimator;
-                    s.radius = Some(rule);
+                    s.radius = rule;
                     s.eye_rays = EyeRays::Fresh;
                     s.photons_per_iteration = 5_000;
                     s.nused = 50;

@@ -109,7 +109,10 @@ pub(crate) fn beam_radius(settings: &IntegratorParams, scale: f32) -> BeamRadius
             k: settings.nused,
             max: settings.maxdist,
             scale,
-            rule: settings.radius.unwrap_or(RadiusRule::Nearest),
+            rule: match settings.radius {
+                RadiusRule::Auto => RadiusRule::Nearest,
+                rule => rule,
+            },
         },
         InitialRadius::Maxdist => BeamRadius::Fixed(settings.maxdist * scale),
     }

@@ -349,7 +349,7 @@ fn first_radius(s: &IntegratorParams) -> f32 {
 fn per_photon_points(s: &IntegratorParams) -> bool {
     s.estimator == MsEstimator::Progressive
         && s.initial_radius == InitialRadius::Nused
-        && matches!(s.radius, Some(RadiusRule::Nearest | RadiusRule::Balanced))
+        && matches!(s.radius, RadiusRule::Nearest | RadiusRule::Balanced)
 }
 
 /// What one iteration traced: a photon map, or the paths' flights as planes.

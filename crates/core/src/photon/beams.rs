@@ -234,7 +234,7 @@ fn photon_radii(map: &PhotonMap, radius: BeamRadius) -> Vec<f32> {
         } => {
             let nearest = nearest_distances(map, k, max);
             let radii = match rule {
-                RadiusRule::Nearest => nearest,
+                RadiusRule::Nearest | RadiusRule::Auto => nearest,
                 RadiusRule::Global => vec![median(&nearest); nearest.len()],
                 RadiusRule::Balanced => balanced(map, &nearest, max),
             };

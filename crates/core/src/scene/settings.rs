@@ -25,7 +25,7 @@
 //! | `alpha` | 0.3 | radius shrink per iteration: `((i+α)/(i+1))^{1/3}` for points (3-D kernel), `^{1/2}` for beams (a 2-D kernel across the ray), `^1` for planes (a 1-D blur) |
 //! | `iterations`, `photons_per_iteration`, `time_budget` | 16, 0 (= `volume_photons`), 0 (none) | progressive and beam: independent photon maps averaged (beam with 1: the plain beam estimate) |
 //! | `target_rmse` | 0 (off) | progressive and beam: stop after the iteration whose image is within this RMSE of the reference (in an experiment with `[reference]`) |
-//! | `radius` | unset | progressive and beam: `global` (one radius; progressive's own), `nearest` (each photon's `nused`-th-neighbour distance; the beams' own) or `balanced` (`r_k^{3/7}·σt^{−4/7}`, the asymptotic-MSE balance) |
+//! | `radius` | `auto` | progressive and beam: `global` (one radius; progressive's `auto`), `nearest` (each photon's `nused`-th-neighbour distance; the beams' `auto`) or `balanced` (`r_k^{3/7}·σt^{−4/7}`, the asymptotic-MSE balance) |
 //! | `eye_rays` | `replayed` | progressive, beam and plane: later iterations shade the first one's eye samples; `fresh` draws new eye rays every iteration and averages every layer (converges per pixel, a full march per iteration) |
 //! | `initial_radius` | `nused` | progressive: median `nused`-th-neighbour distance of the first map; beam: each photon's own `nused`-th-neighbour distance (or `maxdist` for both) |
 //! | `film.exposure` | 0 | stops applied before sRGB encoding |
@@ -154,17 +154,19 @@ pub enum InitialRadius {
 /// How the kernel radius of the progressive and beam estimators varies in space. Each rule
 /// sets the first iteration's radii; every later iteration scales them all by the same
 /// factor (`alpha`), which keeps each rule consistent.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum RadiusRule {
+    /// Each estimator's rule from before the rule was a setting: `global` for progressive
+    /// points, `nearest` for beams. The default.
+    #[default]
+    Auto,
     /// One radius everywhere: the median `nused`-th-neighbour distance of the first map (or
-    /// `maxdist`, as `initial_radius` says), as in Knaus & Zwicker's probabilistic PPM. The
-    /// progressive point estimate's rule when none is set.
+    /// `maxdist`, as `initial_radius` says), as in Knaus & Zwicker's probabilistic PPM.
     Global,
     /// Each photon's own distance to its `nused`-th neighbour (at most `maxdist`): radii
     /// follow the photon density, small where photons crowd and wide where they are
-    /// sparse (the per-beam radii of progressive photon beams, Jarosz et al. 2011). The
-    /// beam estimate's rule when none is set.
+    /// sparse (the per-beam radii of progressive photon beams, Jarosz et al. 2011).
     Nearest,
     /// The radius that balances a 3-D kernel's squared bias against its variance (the
     /// asymptotic-MSE rule behind adaptive progressive photon mapping, Kaplanyan &
@@ -276,14 +278,18 @@ pub struct IntegratorParams {
     pub target_rmse: f32,
     /// Progressive: where the first radius comes from.
     pub initial_radius: InitialRadius,
-    /// Progressive and beam: how the radius varies in space (`None`: the estimator's own,
-    /// `global` for progressive points, `nearest` for beams). Not written when unset.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub radius: Option<RadiusRule>,
+    /// Progressive and beam: how the radius varies in space. Not written when `auto`, so
+    /// the content addresses of cells that do not set it stay what they were.
+    #[serde(skip_serializing_if = "is_auto")]
+    pub radius: RadiusRule,
     /// Progressive, beam and plane: which eye rays the iterations shade. Not written when
     /// `replayed`, so the content addresses of cells that do not set it stay what they were.
     #[serde(skip_serializing_if = "is_replayed")]
     pub eye_rays: EyeRays,
+}
+
+fn is_auto(r: &RadiusRule) -> bool {
+    *r == RadiusRule::Auto
 }
 
 fn is_replayed(e: &EyeRays) -> bool {
@@ -325,7 +331,7 @@ impl Default for IntegratorParams {
             time_budget: 0.0,
             target_rmse: 0.0,
             initial_radius: InitialRadius::Nused,
-            radius: None,
+            radius: RadiusRule::Auto,
             eye_rays: EyeRays::Replayed,
         }
     }

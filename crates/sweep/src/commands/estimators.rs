@@ -55,8 +55,8 @@ struct Config {
     photons: Photons,
     iterations: u32,
     eye_rays: EyeRays,
-    /// The radius rule, when not the estimator's own.
-    radius: Option<RadiusRule>,
+    /// The radius rule.
+    radius: RadiusRule,
     /// The planes' blur half-width (`maxdist`), when not the scene's.
     blur: Option<f32>,
     /// The marching step as a multiple of the scene's.
@@ -76,7 +76,7 @@ const fn config(
         photons,
         iterations,
         eye_rays,
-        radius: None,
+        radius: RadiusRule::Auto,
         blur: None,
         step: 1.0,
     }
@@ -94,7 +94,7 @@ const PLANE_BLUR: f32 = 0.01;
 const fn fresh_beams(name: &'static str, rule: RadiusRule) -> Config {
     use MsEstimator::Beam;
     Config {
-        radius: Some(rule),
+        radius: rule,
         ..config(name, Beam, Photons::Times(1), ITERATIONS, EyeRays::Fresh)
     }
 }
