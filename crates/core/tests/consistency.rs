@@ -105,6 +105,45 @@ fn beam_estimate_equals_the_point_estimate_as_the_step_shrinks() {
     assert!(gaps[2].1 < 0.01, "{gaps:?}");
 }
 
+/// The photon planes take the eye's transmittance from the march (σt constant over each
+/// step), as the beam estimate does; along both legs of a plane they need no step. With
+/// the same planes, the plane estimate at steps 0.04, 0.01, 0.0025 approaches its value at
+/// 0.000625: the step's error shrinks and is within 1 % at 0.0025.
+#[test]
+fn plane_estimate_converges_as_the_step_shrinks() {
+    let base = with(&sphere(), |s| {
+        s.estimator = MsEstimator::Plane;
+        s.estimate = Estimate::Fluence;
+        s.spp = 64;
+    });
+    let (planes, _) = volphot::trace_planes(
+        base.medium(),
+        base.lights(),
+        &volphot::TraceSettings {
+            photons: 2_000,
+            free_path: volphot::FreePath::Delta,
+            stepsize: 0.004,
+            seed: 3,
+        },
+        &Control::none(),
+    )
+    .unwrap();
+    let map = volphot::PlaneMap::new(&planes, 0.01);
+    let at = |step: f32| {
+        let scene = with(&base, |s| s.stepsize = step);
+        let out = volphot::render_march_planes(&scene, &map, &Control::none()).unwrap();
+        out.films[0].layer(Layer::Multiple).to_vec()
+    };
+    let finest = at(0.000625);
+    let gaps: Vec<(f32, f64)> = [0.04f32, 0.01, 0.0025]
+        .into_iter()
+        .map(|step| (step, common::relative_rmse(&at(step), &finest)))
+        .collect();
+    eprintln!("plane estimate against step 0.000625 (step, rRMSE): {gaps:?}");
+    assert!(gaps[0].1 > gaps[1].1 && gaps[1].1 > gaps[2].1, "{gaps:?}");
+    assert!(gaps[2].1 < 0.01, "{gaps:?}");
+}
+
 /// Errors beyond the reference's noise of `estimator` after 1, 4, 16 and 64 iterations,
 /// and the final mean ratio.
 fn convergence(
