@@ -80,7 +80,7 @@ pub use integrator::{
     CACHE_TAU_MAX, CacheError, ErrorBound, EyeProbe, MAX_VERTICES, MarchOutput, MarchStats,
     MsVariant, ProgressiveOutput, ProgressiveStats, ReferenceAccumulator, StopReason,
     ThinningError, error_probe_pixels, next_radius, probe_eye_rays, progress_rows, render_march,
-    render_march_beams, render_progressive, render_reference,
+    render_march_beams, render_march_planes, render_progressive, render_reference,
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
 pub use medium::{
@@ -92,7 +92,8 @@ pub use medium::{
 };
 pub use photon::{
     BeamMap, BeamRadius, Crossing, GatherScratch, GatherVariant, Gathered, MAX_INTERACTIONS,
-    Photon, PhotonMap, PhotonStats, TraceSettings, photons_per_light, trace,
+    Photon, PhotonMap, PhotonPlane, PhotonStats, PlaneCrossing, PlaneMap, TraceSettings,
+    photons_per_light, trace, trace_planes,
 };
 pub use render::{
     Provenance, RenderOutput, RenderRecord, SharedFilm, SharedRender, Timings, build_photon_map,
@@ -103,12 +104,12 @@ pub use render_warnings::{
 };
 pub use scene::{
     BoxParams, Camera, CameraParams, DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW,
-    Estimate, FilmParams, Incident, InitialRadius, IntegratorParams, Intensity, Light, LightKind,
-    LightParams, MAX_MARCH_STEPS, Method, MitsubaExport, MsEstimator, NormalizeKind, PbrtImport,
-    PhaseParams, PointLight, Quadrature, Scene, SceneParams, ShadowEstimator, SpotFalloff,
-    SpotLight, ThreePointParams, Tracker, Unmapped, VolumeParams, build_medium, export_mitsuba,
-    import_pbrt, key_at, line_col, load_params, load_volume, locate, locate_error, three_point,
-    toml_error, validate_params,
+    Estimate, EyeRays, FilmParams, Incident, InitialRadius, IntegratorParams, Intensity, Light,
+    LightKind, LightParams, MAX_MARCH_STEPS, Method, MitsubaExport, MsEstimator, NormalizeKind,
+    PbrtImport, PhaseParams, PointLight, Quadrature, RadiusRule, Scene, SceneParams,
+    ShadowEstimator, SpotFalloff, SpotLight, ThreePointParams, Tracker, Unmapped, VolumeParams,
+    build_medium, export_mitsuba, import_pbrt, key_at, line_col, load_params, load_volume, locate,
+    locate_error, three_point, toml_error, validate_params,
 };
 pub use util::{
     TEXT_INPUT_CAP, byte_size, cache_dir, escaped_prefix, hostname, is_stale_temp,

@@ -5,9 +5,9 @@
 use volphot::test_util as common;
 
 use volphot::{
-    BeamMap, BeamRadius, Control, Estimate, InitialRadius, IntegratorParams, Layer, MsEstimator,
-    MsVariant, Scene, build_photon_map, mean_rgb, render, render_march, render_march_beams,
-    render_reference,
+    BeamMap, BeamRadius, Control, Estimate, EyeRays, InitialRadius, IntegratorParams, Layer,
+    MsEstimator, MsVariant, RadiusRule, Scene, build_photon_map, mean_rgb, render, render_march,
+    render_march_beams, render_reference,
 };
 
 /// The shared spot-lit sphere (σt = 3, albedo 0.8) at 16×16, multiple scattering only.
@@ -105,6 +105,45 @@ fn beam_estimate_equals_the_point_estimate_as_the_step_shrinks() {
     assert!(gaps[2].1 < 0.01, "{gaps:?}");
 }
 
+/// The photon planes take the eye's transmittance from the march (σt constant over each
+/// step), as the beam estimate does; along both legs of a plane they need no step. With
+/// the same planes, the plane estimate at steps 0.04, 0.01, 0.0025 approaches its value at
+/// 0.000625: the step's error shrinks and is within 1 % at 0.0025.
+#[test]
+fn plane_estimate_converges_as_the_step_shrinks() {
+    let base = with(&sphere(), |s| {
+        s.estimator = MsEstimator::Plane;
+        s.estimate = Estimate::Fluence;
+        s.spp = 64;
+    });
+    let (planes, _) = volphot::trace_planes(
+        base.medium(),
+        base.lights(),
+        &volphot::TraceSettings {
+            photons: 2_000,
+            free_path: volphot::FreePath::Delta,
+            stepsize: 0.004,
+            seed: 3,
+        },
+        &Control::none(),
+    )
+    .unwrap();
+    let map = volphot::PlaneMap::new(&planes, 0.01);
+    let at = |step: f32| {
+        let scene = with(&base, |s| s.stepsize = step);
+        let out = volphot::render_march_planes(&scene, &map, &Control::none()).unwrap();
+        out.films[0].layer(Layer::Multiple).to_vec()
+    };
+    let finest = at(0.000625);
+    let gaps: Vec<(f32, f64)> = [0.04f32, 0.01, 0.0025]
+        .into_iter()
+        .map(|step| (step, common::relative_rmse(&at(step), &finest)))
+        .collect();
+    eprintln!("plane estimate against step 0.000625 (step, rRMSE): {gaps:?}");
+    assert!(gaps[0].1 > gaps[1].1 && gaps[1].1 > gaps[2].1, "{gaps:?}");
+    assert!(gaps[2].1 < 0.01, "{gaps:?}");
+}
+
 /// Errors beyond the reference's noise of `estimator` after 1, 4, 16 and 64 iterations,
 /// and the final mean ratio.
 fn convergence(
@@ -112,17 +151,30 @@ fn convergence(
     reference: &(Vec<glam::Vec3>, f64),
     estimator: MsEstimator,
 ) -> (Vec<f64>, f64) {
+    converging(scene, reference, &format!("{estimator:?}"), |s| {
+        s.estimator = estimator;
+        s.photons_per_iteration = 20_000;
+        s.nused = 50;
+        s.maxdist = 0.2;
+        s.initial_radius = InitialRadius::Nused;
+    })
+}
+
+/// Errors beyond the reference's noise after 1, 4, 16 and 64 iterations of the settings
+/// `configure` makes, and the final mean ratio.
+fn converging(
+    scene: &Scene,
+    reference: &(Vec<glam::Vec3>, f64),
+    name: &str,
+    configure: impl Fn(&mut IntegratorParams),
+) -> (Vec<f64>, f64) {
     let (ref_multiple, noise) = reference;
     let mut errors = Vec::new();
     let mut ratio = 0.0;
     for iterations in [1, 4, 16, 64] {
         let scene = with(scene, |s| {
-            s.estimator = estimator;
+            configure(s);
             s.iterations = iterations;
-            s.photons_per_iteration = 20_000;
-            s.nused = 50;
-            s.maxdist = 0.2;
-            s.initial_radius = InitialRadius::Nused;
         });
         let out = render(&scene, &Control::none()).unwrap();
         let stats = out.record.progressive.as_ref().unwrap();
@@ -133,7 +185,7 @@ fn convergence(
         ratio = mean_rgb(multiple) / mean_rgb(ref_multiple);
     }
     eprintln!(
-        "{estimator:?}: rRMSE beyond reference noise {noise:.4} at 1/4/16/64 iterations \
+        "{name}: rRMSE beyond reference noise {noise:.4} at 1/4/16/64 iterations \
          {errors:?}, final mean ratio {ratio:.4}"
     );
     (errors, ratio)
@@ -275,4 +327,84 @@ fn a_target_error_stops_the_iterations_and_every_error_is_recorded() {
     points.target_rmse = 0.01;
     let e = points.validate().unwrap_err().to_string();
     assert!(e.contains("target_rmse") && e.contains("points"), "{e}");
+}
+
+/// Replayed eye rays converge to the estimate of the first iteration's rays, whose pixel
+/// sampling error never falls; fresh eye rays average it away: at 64 iterations the fresh
+/// image is far closer to the reference. Their first iteration is the same render.
+#[test]
+fn fresh_eye_rays_converge_where_replayed_ones_stop() {
+    let scene = sphere();
+    let reference = reference(&scene, 8192);
+    let render_with = |eye_rays, iterations| {
+        let s = with(&scene, |s| {
+            s.estimator = MsEstimator::Beam;
+            s.iterations = iterations;
+            s.photons_per_iteration = 5_000;
+            s.nused = 50;
+            s.eye_rays = eye_rays;
+        });
+        let out = render(&s, &Control::none()).unwrap();
+        out.film.layer(Layer::Multiple).to_vec()
+    };
+    let (replayed, fresh) = (
+        render_with(EyeRays::Replayed, 1),
+        render_with(EyeRays::Fresh, 1),
+    );
+    assert_eq!(
+        replayed, fresh,
+        "the first iteration does not depend on later ones"
+    );
+    let error = |image: &[glam::Vec3]| excess_error(image, &reference.0, reference.1);
+    let replayed = error(&render_with(EyeRays::Replayed, 64));
+    let fresh = error(&render_with(EyeRays::Fresh, 64));
+    eprintln!(
+        "64 iterations, rRMSE beyond the reference's noise: replayed {replayed:.4}, fresh {fresh:.4}"
+    );
+    assert!(fresh < 0.6 * replayed, "replayed {replayed}, fresh {fresh}");
+}
+
+/// With fresh eye rays every radius rule of the progressive points and the beams, and the
+/// photon planes, converge to the reference: the error beyond its noise falls at every
+/// fourfold of the iterations, and the final mean is the reference's.
+#[test]
+fn radius_rules_and_planes_converge_with_fresh_eye_rays() {
+    for (name, scene) in [("sphere", sphere()), ("two-slab", common::scene(TWO_SLAB))] {
+        let reference = reference(&scene, 8192);
+        let mut runs: Vec<(String, (Vec<f64>, f64))> = Vec::new();
+        for estimator in [MsEstimator::Progressive, MsEstimator::Beam] {
+            for rule in [
+                RadiusRule::Global,
+                RadiusRule::Nearest,
+                RadiusRule::Balanced,
+            ] {
+                let label = format!("{name} {estimator:?} {rule:?}");
+                let run = converging(&scene, &reference, &label, |s| {
+                    s.estimator = estimator;
+                    s.radius = rule;
+                    s.eye_rays = EyeRays::Fresh;
+                    s.photons_per_iteration = 5_000;
+                    s.nused = 50;
+                    s.maxdist = 0.2;
+                });
+                runs.push((label, run));
+            }
+        }
+        let label = format!("{name} Plane");
+        let planes = converging(&scene, &reference, &label, |s| {
+            s.estimator = MsEstimator::Plane;
+            s.eye_rays = EyeRays::Fresh;
+            s.photons_per_iteration = 1_000;
+            s.maxdist = 0.01;
+        });
+        runs.push((label, planes));
+        for (label, (errors, ratio)) in runs {
+            assert!(errors[0] / errors[3] > 2.0, "{label}: {errors:?}");
+            assert!(
+                errors.windows(2).all(|w| w[0] > w[1]),
+                "{label}: {errors:?}"
+            );
+            assert!((ratio - 1.0).abs() < 0.03, "{label}: mean ratio {ratio}");
+        }
+    }
 }

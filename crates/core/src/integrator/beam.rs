@@ -15,12 +15,16 @@
 //! eye ray and agree as the step and radius shrink; the term no longer costs a k-NN query
 //! per step. The eye ray's end (box exit or the `termination` cut-off) clips every chord.
 //! In a colour medium Λ varies along a chord and is taken at its midpoint.
+//!
+//! The same spheres also give the progressive point estimate with per-photon radii
+//! ([`RadiusRule`] `nearest` or `balanced`): at each marching sample, the sum over the
+//! spheres that hold it ([`Marcher::add_spheres`]).
 
 use super::marcher::Marcher;
 use super::sample::{Accumulator, RaySample};
 use crate::math::Ray;
 use crate::photon::{BeamMap, BeamRadius, Gathered};
-use crate::scene::{Estimate, InitialRadius, IntegratorParams};
+use crate::scene::{Estimate, InitialRadius, IntegratorParams, RadiusRule};
 
 impl Marcher<'_> {
     /// The multiple-scattering term of the collected samples from the photons' spheres.
@@ -64,6 +68,28 @@ impl Marcher<'_> {
     }
 }
 
+impl Marcher<'_> {
+    /// The multiple-scattering term of the collected samples from the point estimate with
+    /// per-photon radii: at every sample, the sum over the spheres that hold it (no
+    /// thinning: the term is not interpolated behind the front).
+    pub(super) fn add_spheres(&self, spheres: &BeamMap<'_>, wo: glam::Vec3, acc: &mut Accumulator) {
+        let medium = self.medium;
+        let estimate = self.settings.estimate;
+        for sample in &acc.samples {
+            let density = spheres.density_at(
+                sample.x,
+                Gathered::Fluence,
+                medium.phase(),
+                wo,
+                &mut acc.stack,
+            );
+            let factor = super::gather::source_factor(estimate, medium, sample.x, sample.sigma_t);
+            acc.multiple[0] += factor * density * sample.weight;
+        }
+        acc.counters.gathers += acc.samples.len() as u64;
+    }
+}
+
 /// The eye's optical depth at `t` in the march's model: σt constant over each sample's
 /// segment, zero between segments (skipped empty bricks), nothing before the first.
 fn optical_depth_at(samples: &[RaySample], t: f32) -> f32 {
@@ -74,14 +100,19 @@ fn optical_depth_at(samples: &[RaySample], t: f32) -> f32 {
     s.tau_start + s.sigma_t * (t - s.t_start).min(s.width)
 }
 
-/// How a scene's settings size the photons' spheres: the `nused`-th neighbour of each
-/// photon (at most `maxdist`), or `maxdist` for all.
+/// How a scene's settings size the photons' spheres: from the `nused`-th neighbour of each
+/// photon (at most `maxdist`) by the scene's radius rule (each photon's own distance
+/// unless `radius` says otherwise), or `maxdist` for all.
 pub(crate) fn beam_radius(settings: &IntegratorParams, scale: f32) -> BeamRadius {
     match settings.initial_radius {
         InitialRadius::Nused => BeamRadius::Nearest {
             k: settings.nused,
             max: settings.maxdist,
             scale,
+            rule: match settings.radius {
+                RadiusRule::Auto => RadiusRule::Nearest,
+                rule => rule,
+            },
         },
         InitialRadius::Maxdist => BeamRadius::Fixed(settings.maxdist * scale),
     }

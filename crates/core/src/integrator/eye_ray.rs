@@ -19,6 +19,7 @@ use glam::Vec3;
 use super::estimate_track::EstimateTrack;
 use super::gather::{MapGroup, source_factor};
 use super::marcher::Marcher;
+use super::pass::MsSource;
 use super::sample::{Accumulator, RaySample};
 use super::shadow_track::ShadowTrack;
 use super::thinning::Bands;
@@ -101,9 +102,11 @@ impl Marcher<'_> {
             self.add_single(wo, &bands, stride as usize, rng, acc);
         }
         if self.settings.multiple {
-            match self.beams {
-                Some(beams) => self.add_beams(beams, ray, acc),
-                None => self.add_multiple(wo, &bands, acc),
+            match self.source {
+                MsSource::Gathers => self.add_multiple(wo, &bands, acc),
+                MsSource::Beams(beams) => self.add_beams(beams, ray, acc),
+                MsSource::Spheres(spheres) => self.add_spheres(spheres, wo, acc),
+                MsSource::Planes(planes) => self.add_planes(planes, ray, rng, acc),
             }
         }
     }

@@ -17,11 +17,11 @@ use glam::Vec3;
 use super::cache::TransmittanceCache;
 use super::eye_samples::{EyeSampleStore, RowSamples};
 use super::gather::{MapGroup, MsVariant};
+use super::pass::MsSource;
 use super::sample::{Accumulator, RowCounters};
 use super::thinning::knot_cap;
 use crate::math::{Domain, Ray, Rng};
 use crate::medium::Medium;
-use crate::photon::BeamMap;
 use crate::scene::{Camera, IntegratorParams, Light, Scene};
 
 /// What one marching pass reads: the medium, lights and settings, the variants' photon
@@ -32,8 +32,8 @@ pub(super) struct Marcher<'a> {
     pub(super) settings: &'a IntegratorParams,
     pub(super) variants: &'a [MsVariant],
     pub(super) groups: Vec<MapGroup<'a>>,
-    /// The photons as spheres, when the beam estimate gives the multiple term.
-    pub(super) beams: Option<&'a BeamMap<'a>>,
+    /// Where the multiple term comes from: the groups' gathers, beams or planes.
+    pub(super) source: MsSource<'a>,
     pub(super) shadow_caches: Option<Vec<TransmittanceCache>>,
     /// `−ln(termination)`: optical depth at which a marched shadow ray counts as blocked.
     pub(super) shadow_tau_max: f32,
@@ -45,13 +45,13 @@ pub(super) struct Marcher<'a> {
 
 impl<'a> Marcher<'a> {
     /// The marcher of one pass over `scene`: `variants` from `groups` (point gathers) or
-    /// from `beams`, the transmittance caches when the scene asks for them, and the eye
-    /// samples of `replay` instead of marching the medium.
+    /// from the beams or planes of `source`, the transmittance caches when the scene asks
+    /// for them, and the eye samples of `replay` instead of marching the medium.
     pub(super) fn new(
         scene: &'a Scene,
         variants: &'a [MsVariant],
         groups: Vec<MapGroup<'a>>,
-        beams: Option<&'a BeamMap<'a>>,
+        source: MsSource<'a>,
         replay: Option<&'a EyeSampleStore>,
     ) -> Self {
         let settings = scene.integrator();
@@ -63,7 +63,7 @@ impl<'a> Marcher<'a> {
             settings,
             variants,
             groups,
-            beams,
+            source,
             gather_knot_cap: knot_cap(
                 medium.density_grid().voxel_size().min_element(),
                 settings.stepsize,
@@ -94,7 +94,7 @@ impl<'a> Marcher<'a> {
             settings,
             variants: &[],
             groups: Vec::new(),
-            beams: None,
+            source: MsSource::Gathers,
             shadow_caches: None,
             shadow_tau_max: f32::INFINITY,
             gather_knot_cap: knot_cap(

@@ -9,8 +9,9 @@
 //! ```text
 //! stage                     file                 holds
 //! ────────────────────────  ───────────────────  ─────────────────────────────────────────
-//! entry, rows → films       pass.rs              render_march, render_march_beams, their
-//!                                                measured forms, MarchOutput, MarchStats
+//! entry, rows → films       pass.rs              render_march, render_march_beams,
+//!                                                render_march_planes, their measured
+//!                                                forms, MsSource, MarchOutput, MarchStats
 //! one image row             marcher.rs         * Marcher (what a pass reads) and its
 //!                                                constructors, render_row, Row
 //! one eye ray               eye_ray.rs         * collect_samples, trace, add_single,
@@ -20,6 +21,7 @@
 //!                                                k-NN query), source_factor
 //!     …behind the front     estimate_track.rs    EstimateTrack: one variant's estimate
 //!   beam estimate           beam.rs            * add_beams, beam_radius
+//!   plane estimate          plane.rs           * add_planes
 //!   both tracks             adaptive_fill.rs     Track, fill_adaptive (midpoint-checked)
 //!   thinning                thinning.rs          Bands, knot spacing, ThinningError
 //!   caches                  cache.rs             TransmittanceCache, ScatterCache
@@ -30,8 +32,8 @@
 //!                                                GatheredEstimates
 //! ```
 //!
-//! Around the pass: `progressive.rs` (render_progressive: progressive photon mapping and
-//! progressive beams, one pass per iteration), `eye_probe.rs` (probe_eye_rays: samples per
+//! Around the pass: `progressive.rs` (render_progressive: progressive photon mapping,
+//! progressive beams and photon planes, one pass per iteration), `eye_probe.rs` (probe_eye_rays: samples per
 //! eye ray, measured before rendering) and `reference.rs` (render_reference: the unbiased
 //! path tracer, which needs no marcher). Imports run one way, from the entry points down to
 //! the leaves `sample.rs`, `error_bound.rs` and `adaptive_fill.rs`, except between
@@ -77,6 +79,7 @@ mod eye_samples;
 mod gather;
 mod marcher;
 mod pass;
+mod plane;
 mod progressive;
 mod reference;
 mod sample;
@@ -88,7 +91,7 @@ pub use error_bound::ErrorBound;
 pub use error_probes::{CacheError, error_probe_pixels};
 pub use eye_probe::{EyeProbe, probe_eye_rays};
 pub use gather::MsVariant;
-pub use pass::{MarchOutput, MarchStats, render_march, render_march_beams};
+pub use pass::{MarchOutput, MarchStats, render_march, render_march_beams, render_march_planes};
 pub use progressive::{
     ProgressiveOutput, ProgressiveStats, StopReason, next_radius, progress_rows, render_progressive,
 };

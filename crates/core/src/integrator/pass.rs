@@ -1,7 +1,8 @@
 //! The ray-marching pass: eye rays through every pixel, a source term at every marching
 //! sample, layers accumulated front to back (thesis §6, eq. in §6 and §7.1.3).
 //!
-//! Here are the entry points ([`render_march`], [`render_march_beams`], and their
+//! Here are the entry points ([`render_march`], [`render_march_beams`],
+//! [`render_march_planes`], and their
 //! measured forms the progressive loop calls), the pass itself (image rows in parallel,
 //! each rendered by the [`Marcher`]) and the films and counters the rows are joined into.
 
@@ -19,7 +20,7 @@ use super::marcher::{Marcher, Row};
 use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
-use crate::photon::{BeamMap, PhotonMap};
+use crate::photon::{BeamMap, PhotonMap, PlaneMap};
 use crate::scene::{Camera, Scene};
 
 /// Counters of one marching pass.
@@ -127,7 +128,22 @@ pub(super) fn march_measured(
         ));
     }
     let groups = group_by_map(variants, maps, settings, medium.bounds())?;
-    run_march(scene, variants, groups, None, control, (measure, eye))
+    let source = MsSource::Gathers;
+    run_march(scene, variants, groups, source, control, (measure, eye))
+}
+
+/// Where a pass's multiple-scattering term comes from.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum MsSource<'a> {
+    /// Photon-map gathers at the marching samples (the variants' map groups).
+    Gathers,
+    /// The beam radiance estimate over photons as spheres.
+    Beams(&'a BeamMap<'a>),
+    /// The point estimate with each photon's own radius (sample-point kernels) at every
+    /// marching sample.
+    Spheres(&'a BeamMap<'a>),
+    /// Photon planes.
+    Planes(&'a PlaneMap<'a>),
 }
 
 /// Renders a scene with the ray-marching integrator, the multiple-scattering term from the
@@ -138,21 +154,26 @@ pub fn render_march_beams(
     beams: &BeamMap<'_>,
     control: &Control<'_>,
 ) -> Result<MarchOutput> {
-    beams_measured(
-        scene,
-        beams,
-        control,
-        Measure::asked_by(control),
-        EyeSamples::March,
-    )
-    .map(|(out, _)| out)
+    let (measure, eye) = (Measure::asked_by(control), EyeSamples::March);
+    photons_measured(scene, MsSource::Beams(beams), control, measure, eye).map(|(out, _)| out)
 }
 
-/// [`render_march_beams`], measuring the errors or not, keeping or replaying the eye
-/// samples as `eye` says.
-pub(super) fn beams_measured(
+/// Renders a scene with the ray-marching integrator, the multiple-scattering term from
+/// photon planes ([`PlaneMap`], Bitterli & Jarosz 2017) instead of point gathers.
+pub fn render_march_planes(
     scene: &Scene,
-    beams: &BeamMap<'_>,
+    planes: &PlaneMap<'_>,
+    control: &Control<'_>,
+) -> Result<MarchOutput> {
+    let (measure, eye) = (Measure::asked_by(control), EyeSamples::March);
+    photons_measured(scene, MsSource::Planes(planes), control, measure, eye).map(|(out, _)| out)
+}
+
+/// A pass whose multiple term comes from beams or planes (`source`), measuring the errors
+/// or not, keeping or replaying the eye samples as `eye` says.
+pub(super) fn photons_measured(
+    scene: &Scene,
+    source: MsSource<'_>,
     control: &Control<'_>,
     measure: Measure,
     eye: EyeSamples<'_>,
@@ -160,14 +181,7 @@ pub(super) fn beams_measured(
     let settings = scene.integrator();
     let own = [MsVariant::of_scene(settings)];
     let variants: &[MsVariant] = if settings.multiple { &own } else { &[] };
-    run_march(
-        scene,
-        variants,
-        Vec::new(),
-        Some(beams),
-        control,
-        (measure, eye),
-    )
+    run_march(scene, variants, Vec::new(), source, control, (measure, eye))
 }
 
 /// The pass itself: rows in parallel, then the films and counters (and the eye samples,
@@ -176,7 +190,7 @@ fn run_march<'a>(
     scene: &'a Scene,
     variants: &'a [MsVariant],
     groups: Vec<MapGroup<'a>>,
-    beams: Option<&'a BeamMap<'a>>,
+    source: MsSource<'a>,
     control: &Control<'_>,
     (measure, eye): (Measure, EyeSamples<'a>),
 ) -> Result<(MarchOutput, Option<EyeSampleStore>)> {
@@ -186,7 +200,7 @@ fn run_march<'a>(
         EyeSamples::Replay(store) => Some(store),
         EyeSamples::March | EyeSamples::Record => None,
     };
-    let marcher = Marcher::new(scene, variants, groups, beams, replay);
+    let marcher = Marcher::new(scene, variants, groups, source, replay);
     let camera = scene.camera();
     let rows_done = AtomicU64::new(0);
     let keeper = SampleKeeper::new(matches!(eye, EyeSamples::Record));

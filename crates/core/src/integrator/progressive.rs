@@ -29,12 +29,16 @@ use super::beam::{beam_masked, beam_radius};
 use super::error_probes::CacheError;
 use super::eye_samples::{EyeSampleStore, EyeSamples};
 use super::gather::MsVariant;
-use super::pass::{MarchStats, Measure, beams_measured, march_measured};
+use super::pass::{MarchOutput, MarchStats, Measure, MsSource, march_measured, photons_measured};
 use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
-use crate::photon::{BeamMap, PhotonMap, PhotonStats, TraceSettings, trace};
-use crate::scene::{InitialRadius, IntegratorParams, Method, MsEstimator, Scene};
+use crate::photon::{
+    BeamMap, PhotonMap, PhotonPlane, PhotonStats, PlaneMap, TraceSettings, trace, trace_planes,
+};
+use crate::scene::{
+    EyeRays, InitialRadius, IntegratorParams, Method, MsEstimator, RadiusRule, Scene,
+};
 
 /// What a progressive render did.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -105,10 +109,11 @@ pub struct ProgressiveOutput {
 /// The radius of iteration `i + 1` from that of iteration `i` (1-based): the variance of
 /// a kernel over `d` dimensions grows as `r^−d`, so `r^d` shrinks by `(i + α)/(i + 1)` —
 /// `d = 3` for the point estimate's ball, `d = 2` for the beam estimate (its kernel,
-/// integrated along the ray, is a disc across it).
+/// integrated along the ray, is a disc across it), `d = 1` for the planes' blur.
 pub fn next_radius(radius: f32, i: u32, alpha: f32, estimator: MsEstimator) -> f32 {
     let ratio = (i as f32 + alpha) / (i as f32 + 1.0);
     match estimator {
+        MsEstimator::Plane => radius * ratio,
         MsEstimator::Beam => radius * ratio.sqrt(),
         MsEstimator::Points | MsEstimator::Progressive => radius * ratio.cbrt(),
     }
@@ -116,10 +121,7 @@ pub fn next_radius(radius: f32, i: u32, alpha: f32, estimator: MsEstimator) -> f
 
 /// Progress units of a render: image rows per march, times the iterations.
 pub fn progress_rows(settings: &IntegratorParams, rows: u32) -> u64 {
-    let iterative = matches!(
-        settings.estimator,
-        MsEstimator::Progressive | MsEstimator::Beam
-    );
+    let iterative = settings.estimator != MsEstimator::Points;
     if iterative && settings.multiple && settings.method == Method::Photon {
         rows as u64 * settings.iterations as u64
     } else {
@@ -144,17 +146,17 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
     };
     let rows = scene.camera().height() as u64;
     let mut sums = Iterations::new(photons);
-    // The point estimate's radius, or the beams' scale of their own radii.
-    let mut radius = match s.estimator {
-        MsEstimator::Beam => 1.0,
-        _ => s.maxdist,
-    };
+    let mut radius = first_radius(&s);
     // The first march's eye samples, which every later one shades again.
     let mut eye_samples: Option<EyeSampleStore> = None;
     for i in 1..=s.iterations {
-        let map = trace_iteration(scene, &s, i, photons, control)?;
-        if i == 1 && s.initial_radius == InitialRadius::Nused && s.estimator != MsEstimator::Beam {
-            radius = median_nused_distance(&map, s.nused, s.maxdist);
+        let traced = trace_iteration(scene, &s, i, photons, control)?;
+        if let (1, Traced::Map(map)) = (i, &traced)
+            && s.initial_radius == InitialRadius::Nused
+            && s.estimator == MsEstimator::Progressive
+            && !per_photon_points(&s)
+        {
+            radius = median_nused_distance(map, s.nused, s.maxdist);
         }
         let progress = |r: u64| control.report((i as u64 - 1) * rows + r);
         let iteration_control = control.with_progress(&progress);
@@ -167,14 +169,15 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
                 Measure::Skip
             },
             eye: match (&eye_samples, i) {
+                _ if s.eye_rays == EyeRays::Fresh => EyeSamples::March,
                 (Some(store), _) => EyeSamples::Replay(store),
                 (None, 1) if s.iterations > 1 => EyeSamples::Record,
                 (None, _) => EyeSamples::March,
             },
         };
-        let mut iteration = march_iteration(scene, &s, &map, radius, &iteration_control, pass)?;
+        let mut iteration = march_iteration(scene, &s, &traced, radius, &iteration_control, pass)?;
         eye_samples = eye_samples.or(iteration.eye_samples.take());
-        sums.add(i, &map, iteration, &s, control);
+        sums.add(i, &traced, iteration, &s, control);
         radius = next_radius(radius, i, s.alpha, s.estimator);
         if let Some(stopped) = sums.stop_reason(&s, control, start) {
             sums.stats.stopped = stopped;
@@ -195,6 +198,9 @@ struct Iterations {
     first_error: Option<CacheError>,
     /// The sum of the iterations' multiple layers.
     multiple_sum: Vec<Vec3>,
+    /// With fresh eye rays: the sums of the iterations' single and emission layers.
+    single_sum: Vec<Vec3>,
+    emission_sum: Vec<Vec3>,
     /// With a reference: the first march's direct layers, the part of the image that no
     /// later iteration changes.
     direct: Vec<Vec3>,
@@ -211,30 +217,34 @@ impl Iterations {
         }
     }
 
-    /// Adds iteration `i`, traced as `map` and marched as `pass`.
+    /// Adds iteration `i`, traced as `traced` and marched as `pass`.
     fn add(
         &mut self,
         i: u32,
-        map: &PhotonMap,
+        traced: &Traced,
         pass: IterationPass,
         s: &IntegratorParams,
         control: &Control<'_>,
     ) {
         let stats = &mut self.stats;
-        stats.photon_seconds += map.stats().seconds;
-        stats.tree_seconds += map.build_seconds();
+        stats.photon_seconds += traced.stats().seconds;
+        stats.tree_seconds += traced.build_seconds();
         stats.tree_seconds += pass.build_seconds;
         stats.march_seconds += pass.march.seconds;
         stats.march_seconds_each.push(pass.march.seconds);
         stats.radii.push(pass.radius);
-        stats.stored.push(map.stats().stored);
-        stats.stored_power.push(stored_power(map));
+        stats.stored.push(traced.stats().stored);
+        stats.stored_power.push(traced.stats().stored_power);
         stats.iterations = i;
         accumulate(&mut self.multiple_sum, pass.film.layer(Layer::Multiple));
+        if s.eye_rays == EyeRays::Fresh {
+            accumulate(&mut self.single_sum, pass.film.layer(Layer::Single));
+            accumulate(&mut self.emission_sum, pass.film.layer(Layer::Emission));
+        }
         if i == 1 {
             self.first_march = pass.march;
             self.first_error = pass.cache_error;
-            self.first_photons = map.stats().clone();
+            self.first_photons = traced.stats().clone();
             if control.reference().is_some() {
                 self.direct = pass.film.combine(&Layer::shown(false, s.emission));
             }
@@ -251,12 +261,7 @@ impl Iterations {
         start: Instant,
     ) -> Option<StopReason> {
         if let Some(reference) = control.reference() {
-            let error = error_after(
-                &self.direct,
-                &self.multiple_sum,
-                self.stats.iterations,
-                reference,
-            );
+            let error = crate::film::rmse(&self.image(s.emission), reference);
             self.stats.errors.push(error);
             if s.target_rmse > 0.0 && error <= s.target_rmse as f64 {
                 return Some(StopReason::TargetRmse);
@@ -267,15 +272,38 @@ impl Iterations {
         out_of_time.then_some(StopReason::TimeBudget)
     }
 
-    /// The image (the first iteration's direct layers, the mean multiple layer) and what
-    /// the iterations did.
+    /// The image after the iterations so far, for a reference: the direct layers (the
+    /// first march's, or their mean with fresh eye rays; emission when `emission`) plus the
+    /// mean multiple layer.
+    fn image(&self, emission: bool) -> Vec<Vec3> {
+        let n = self.stats.iterations as f32;
+        let direct = |k: usize| {
+            if self.single_sum.is_empty() {
+                return self.direct[k];
+            }
+            let glow = if emission {
+                self.emission_sum[k]
+            } else {
+                Vec3::ZERO
+            };
+            (self.single_sum[k] + glow) / n
+        };
+        (0..self.multiple_sum.len())
+            .map(|k| direct(k) + self.multiple_sum[k] / n)
+            .collect()
+    }
+
+    /// The image (the first iteration's direct layers, or their mean with fresh eye rays;
+    /// the mean multiple layer) and what the iterations did.
     fn finish(self) -> ProgressiveOutput {
         let mut film = self.film.expect("at least one iteration");
         let n = self.stats.iterations as f32;
-        film.set_layer(
-            Layer::Multiple,
-            self.multiple_sum.iter().map(|v| *v / n).collect(),
-        );
+        let mean = |sum: &[Vec3]| sum.iter().map(|v| *v / n).collect();
+        film.set_layer(Layer::Multiple, mean(&self.multiple_sum));
+        if !self.single_sum.is_empty() {
+            film.set_layer(Layer::Single, mean(&self.single_sum));
+            film.set_layer(Layer::Emission, mean(&self.emission_sum));
+        }
         ProgressiveOutput {
             film,
             march: self.first_march,
@@ -304,33 +332,74 @@ fn check_reference(scene: &Scene, s: &IntegratorParams, control: &Control<'_>) -
     }
 }
 
-/// The RMSE against `reference` of the image after `i` iterations: the direct layers plus
-/// the mean multiple layer.
-fn error_after(direct: &[Vec3], multiple_sum: &[Vec3], i: u32, reference: &[Vec3]) -> f64 {
-    let image: Vec<Vec3> = direct
-        .iter()
-        .zip(multiple_sum)
-        .map(|(d, m)| *d + *m / i as f32)
-        .collect();
-    crate::film::rmse(&image, reference)
+/// The radius of the first iteration: the point estimate's gather radius (`maxdist`,
+/// replaced by the first map's median `nused`-th-neighbour distance when asked), the
+/// beams' scale of their own radii, or the planes' blur half-width.
+fn first_radius(s: &IntegratorParams) -> f32 {
+    match s.estimator {
+        MsEstimator::Beam => 1.0,
+        MsEstimator::Progressive if per_photon_points(s) => 1.0,
+        MsEstimator::Points | MsEstimator::Progressive | MsEstimator::Plane => s.maxdist,
+    }
 }
 
-/// The photon map of iteration `i`: its own seed, so iterations are independent.
+/// Whether the progressive point estimate sizes its kernels per photon (a `nearest` or
+/// `balanced` radius rule from the `nused`-th neighbours): then its "radius" is the scale
+/// of the photons' own radii, as for the beams.
+fn per_photon_points(s: &IntegratorParams) -> bool {
+    s.estimator == MsEstimator::Progressive
+        && s.initial_radius == InitialRadius::Nused
+        && matches!(s.radius, RadiusRule::Nearest | RadiusRule::Balanced)
+}
+
+/// What one iteration traced: a photon map, or the paths' flights as planes.
+enum Traced {
+    Map(PhotonMap),
+    Planes(Vec<PhotonPlane>, PhotonStats),
+}
+
+impl Traced {
+    fn stats(&self) -> &PhotonStats {
+        match self {
+            Traced::Map(map) => map.stats(),
+            Traced::Planes(_, stats) => stats,
+        }
+    }
+
+    /// Seconds spent building the map's kd-tree (planes build their hierarchy per march).
+    fn build_seconds(&self) -> f64 {
+        match self {
+            Traced::Map(map) => map.build_seconds(),
+            Traced::Planes(..) => 0.0,
+        }
+    }
+}
+
+/// The photons of iteration `i`: its own seed, so iterations are independent.
 fn trace_iteration(
     scene: &Scene,
     s: &IntegratorParams,
     i: u32,
     photons: u64,
     control: &Control<'_>,
-) -> Result<PhotonMap> {
+) -> Result<Traced> {
     let settings = TraceSettings {
         photons,
         free_path: s.free_path,
         stepsize: s.stepsize,
         seed: s.seed ^ ((i as u64) << 40),
     };
-    let (photons, stats) = trace(scene.medium(), scene.lights(), &settings, control)?;
-    Ok(PhotonMap::new(photons, stats))
+    let (medium, lights) = (scene.medium(), scene.lights());
+    Ok(match s.estimator {
+        MsEstimator::Plane => {
+            let (planes, stats) = trace_planes(medium, lights, &settings, control)?;
+            Traced::Planes(planes, stats)
+        }
+        _ => {
+            let (photons, stats) = trace(medium, lights, &settings, control)?;
+            Traced::Map(PhotonMap::new(photons, stats))
+        }
+    })
 }
 
 /// What one iteration's march produced.
@@ -364,7 +433,7 @@ struct Pass<'a> {
 fn march_iteration(
     scene: &Scene,
     s: &IntegratorParams,
-    map: &PhotonMap,
+    traced: &Traced,
     radius: f32,
     control: &Control<'_>,
     pass: Pass<'_>,
@@ -374,27 +443,35 @@ fn march_iteration(
         measure,
         eye,
     } = pass;
-    let mut settings = s.clone();
-    if i > 1 {
-        settings.single = false;
-        settings.emission = false;
-    }
-    let scene = scene.with_integrator(settings)?;
-    if s.estimator == MsEstimator::Beam {
+    let scene = scene.with_integrator(iteration_settings(s, i))?;
+    let map = match traced {
+        Traced::Planes(planes, _) => {
+            let start = Instant::now();
+            let planes = PlaneMap::new(planes, radius);
+            let build_seconds = start.elapsed().as_secs_f64();
+            let source = MsSource::Planes(&planes);
+            let (out, eye_samples) = photons_measured(&scene, source, control, measure, eye)?;
+            return Ok(IterationPass::of(out, radius, build_seconds, eye_samples));
+        }
+        Traced::Map(map) => map,
+    };
+    if s.estimator == MsEstimator::Beam || per_photon_points(s) {
         let start = Instant::now();
         let beams = BeamMap::new(map, beam_radius(s, radius), scene.medium(), beam_masked(s));
         let build_seconds = start.elapsed().as_secs_f64();
-        let (mut out, eye_samples) = beams_measured(&scene, &beams, control, measure, eye)?;
+        let source = match s.estimator {
+            MsEstimator::Beam => MsSource::Beams(&beams),
+            _ => MsSource::Spheres(&beams),
+        };
+        let (out, eye_samples) = photons_measured(&scene, source, control, measure, eye)?;
         // The hierarchy is a search structure built once per map, like a kd-tree: its
         // time is the tree's, not the march's (which scales with the pixels).
-        return Ok(IterationPass {
-            film: out.films.swap_remove(0),
-            march: out.stats,
-            radius: beams.mean_radius(),
-            cache_error: out.cache_errors.swap_remove(0),
+        return Ok(IterationPass::of(
+            out,
+            beams.mean_radius(),
             build_seconds,
             eye_samples,
-        });
+        ));
     }
     let variant = MsVariant {
         map: 0,
@@ -402,15 +479,42 @@ fn march_iteration(
         maxdist: radius,
         estimate: s.estimate,
     };
-    let (mut out, eye_samples) = march_measured(&scene, &[map], &[variant], control, measure, eye)?;
-    Ok(IterationPass {
-        film: out.films.swap_remove(0),
-        march: out.stats,
-        radius,
-        cache_error: out.cache_errors.swap_remove(0),
-        build_seconds: 0.0,
-        eye_samples,
-    })
+    let (out, eye_samples) = march_measured(&scene, &[map], &[variant], control, measure, eye)?;
+    Ok(IterationPass::of(out, radius, 0.0, eye_samples))
+}
+
+/// The settings of iteration `i`'s march: after the first, the multiple layer alone at the
+/// same eye rays — or, with fresh eye rays, every layer at eye rays of their own (the
+/// pixels' streams are keyed by the seed).
+fn iteration_settings(s: &IntegratorParams, i: u32) -> IntegratorParams {
+    let mut settings = s.clone();
+    if i == 1 {
+        return settings;
+    }
+    match s.eye_rays {
+        EyeRays::Replayed => (settings.single, settings.emission) = (false, false),
+        EyeRays::Fresh => settings.seed = crate::math::mix64(s.seed ^ ((i as u64) << 32)),
+    }
+    settings
+}
+
+impl IterationPass {
+    /// The pass of one iteration from its march's output (one film).
+    fn of(
+        mut out: MarchOutput,
+        radius: f32,
+        build_seconds: f64,
+        eye_samples: Option<EyeSampleStore>,
+    ) -> Self {
+        IterationPass {
+            film: out.films.swap_remove(0),
+            march: out.stats,
+            radius,
+            cache_error: out.cache_errors.swap_remove(0),
+            build_seconds,
+            eye_samples,
+        }
+    }
 }
 
 /// The median over (up to 1000 of) the map's photons of the distance to their `nused`-th
@@ -437,16 +541,6 @@ fn median_nused_distance(map: &PhotonMap, nused: u32, maxdist: f32) -> f32 {
     distances[distances.len() / 2].max(f32::MIN_POSITIVE)
 }
 
-/// Σ ΔΦ over a map's photons, mean of RGB.
-fn stored_power(map: &PhotonMap) -> f64 {
-    let sum: f64 = map
-        .photons()
-        .iter()
-        .map(|p| (p.power.x as f64 + p.power.y as f64 + p.power.z as f64) / 3.0)
-        .sum();
-    sum
-}
-
 fn accumulate(sum: &mut Vec<Vec3>, layer: &[Vec3]) {
     if sum.is_empty() {
         sum.resize(layer.len(), Vec3::ZERO);
@@ -466,18 +560,16 @@ mod tests {
     fn marching_every_pass(scene: &Scene, iterations: u32) -> Vec<Vec3> {
         let s = scene.integrator().clone();
         let control = Control::none();
-        let mut radius = match s.estimator {
-            MsEstimator::Beam => 1.0,
-            _ => s.maxdist,
-        };
+        let mut radius = first_radius(&s);
         let mut sum = Vec::new();
         for i in 1..=iterations {
             let map = trace_iteration(scene, &s, i, s.photons_per_iteration, &control).unwrap();
-            if i == 1
+            if let (1, Traced::Map(m)) = (i, &map)
                 && s.initial_radius == InitialRadius::Nused
-                && s.estimator != MsEstimator::Beam
+                && s.estimator == MsEstimator::Progressive
+                && !per_photon_points(&s)
             {
-                radius = median_nused_distance(&map, s.nused, s.maxdist);
+                radius = median_nused_distance(m, s.nused, s.maxdist);
             }
             let pass = Pass {
                 index: i,
@@ -497,7 +589,11 @@ mod tests {
         // Not square and two eye rays a pixel, so a sample store indexed wrongly by row,
         // pixel or ray would shade another ray's samples; thinned (the default).
         let src = SPOT_SPHERE.replace("resolution = [20, 20]", "resolution = [13, 9]");
-        for estimator in [MsEstimator::Progressive, MsEstimator::Beam] {
+        for estimator in [
+            MsEstimator::Progressive,
+            MsEstimator::Beam,
+            MsEstimator::Plane,
+        ] {
             let mut settings = scene_from(&src).integrator().clone();
             settings.estimator = estimator;
             settings.iterations = 4;

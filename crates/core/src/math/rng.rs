@@ -24,6 +24,8 @@ pub enum Domain {
     /// The reference path tracer's pilot (per-pixel allocation), one stream per pixel and
     /// sample, apart from the samples the estimate averages.
     ReferencePilot = 6,
+    /// Photon planes: the draws a plane adds to its photon's path, one stream per photon.
+    Planes = 7,
 }
 
 /// SplitMix64 finaliser: a bijective avalanche mix of 64 bits.

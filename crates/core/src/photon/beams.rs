@@ -13,14 +13,16 @@ use rayon::prelude::*;
 use super::map::{Gathered, PhotonMap};
 use crate::math::Ray;
 use crate::medium::{Medium, Phase};
+use crate::scene::RadiusRule;
 
 /// How each photon's sphere radius is chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum BeamRadius {
     /// Every photon the same radius.
     Fixed(f32),
-    /// The distance to the photon's `k`-th nearest photon (itself counted), at most `max`,
-    /// times `scale` (progressive beams shrink every radius by one factor).
+    /// From the distance `r_k` to each photon's `k`-th nearest photon (itself counted), at
+    /// most `max`, by `rule` ([`RadiusRule`]), times `scale` (progressive beams shrink every
+    /// radius by one factor).
     Nearest {
         /// Neighbours that set the radius.
         k: u32,
@@ -28,6 +30,9 @@ pub enum BeamRadius {
         max: f32,
         /// The factor applied to every radius.
         scale: f32,
+        /// `Nearest`: `r_k`; `Global`: the median `r_k` for every photon; `Balanced`:
+        /// `r_k^(3/7)·σt^(−4/7)` scaled to the median `r_k`.
+        rule: RadiusRule,
     },
 }
 
@@ -179,32 +184,121 @@ impl<'a> BeamMap<'a> {
     }
 }
 
+impl BeamMap<'_> {
+    /// The sum of the terms (as [`Crossing::density`]) of every photon whose sphere holds
+    /// `x`, towards `wo`: the sample-point density estimate with each photon's own radius.
+    pub fn density_at(
+        &self,
+        x: Vec3,
+        gathered: Gathered,
+        phase: Phase,
+        wo: Vec3,
+        stack: &mut Vec<u32>,
+    ) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        if self.nodes.is_empty() {
+            return sum;
+        }
+        stack.clear();
+        stack.push(0);
+        while let Some(index) = stack.pop() {
+            let node = self.nodes[index as usize];
+            if x.cmplt(node.min).any() || x.cmpgt(node.max).any() {
+                continue;
+            }
+            if node.count == 0 {
+                stack.push(node.start);
+                stack.push(index + 1);
+                continue;
+            }
+            for sphere in &self.spheres[node.start as usize..(node.start + node.count) as usize] {
+                if (x - sphere.center).length_squared() < sphere.radius2 {
+                    let photon = &self.map.photons()[sphere.photon as usize];
+                    sum += PhotonMap::term(photon, gathered, phase, wo) * sphere.inv_volume;
+                }
+            }
+        }
+        sum
+    }
+}
+
 /// Each photon's radius.
 fn photon_radii(map: &PhotonMap, radius: BeamRadius) -> Vec<f32> {
     match radius {
         BeamRadius::Fixed(r) => vec![r; map.len()],
-        BeamRadius::Nearest { k, max, scale } => {
-            let k = NonZeroUsize::new(k.max(1) as usize).expect("k ≥ 1");
-            map.photons()
-                .par_iter()
-                .map(|photon| {
-                    let found = map
-                        .tree()
-                        .query(&photon.position.to_array())
-                        .nearest_n::<SquaredEuclidean<f32>>(k)
-                        .within(max * max)
-                        .unsorted()
-                        .execute();
-                    scale
-                        * if found.len() < k.get() {
-                            max
-                        } else {
-                            found.iter().fold(0.0f32, |m, h| m.max(h.distance)).sqrt()
-                        }
-                })
-                .collect()
+        BeamRadius::Nearest {
+            k,
+            max,
+            scale,
+            rule,
+        } => {
+            let nearest = nearest_distances(map, k, max);
+            let radii = match rule {
+                RadiusRule::Nearest | RadiusRule::Auto => nearest,
+                RadiusRule::Global => vec![median(&nearest); nearest.len()],
+                RadiusRule::Balanced => balanced(map, &nearest, max),
+            };
+            radii.into_iter().map(|r| r * scale).collect()
         }
     }
+}
+
+/// The distance from each photon to its `k`-th nearest photon (itself counted), or `max`
+/// when fewer than `k` lie within `max`.
+fn nearest_distances(map: &PhotonMap, k: u32, max: f32) -> Vec<f32> {
+    let k = NonZeroUsize::new(k.max(1) as usize).expect("k ≥ 1");
+    map.photons()
+        .par_iter()
+        .map(|photon| {
+            let found = map
+                .tree()
+                .query(&photon.position.to_array())
+                .nearest_n::<SquaredEuclidean<f32>>(k)
+                .within(max * max)
+                .unsorted()
+                .execute();
+            if found.len() < k.get() {
+                max
+            } else {
+                found.iter().fold(0.0f32, |m, h| m.max(h.distance)).sqrt()
+            }
+        })
+        .collect()
+}
+
+/// The median of `values` (0 when empty).
+fn median(values: &[f32]) -> f32 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let mut sorted = values.to_vec();
+    let mid = sorted.len() / 2;
+    *sorted.select_nth_unstable_by(mid, f32::total_cmp).1
+}
+
+/// The balanced radii ([`RadiusRule::Balanced`]): `r_k^(3/7)·σt^(−4/7)` at each photon,
+/// scaled so that their median is the median `r_k`, at most `max`. A photon stored where
+/// σt = 0 (the thesis's free-path rule) keeps its `r_k`.
+fn balanced(map: &PhotonMap, nearest: &[f32], max: f32) -> Vec<f32> {
+    let shape: Vec<f32> = map
+        .photons()
+        .iter()
+        .zip(nearest)
+        .map(|(p, &r)| {
+            if p.sigma_t > 0.0 {
+                r.powf(3.0 / 7.0) * p.sigma_t.powf(-4.0 / 7.0)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let positive: Vec<f32> = shape.iter().copied().filter(|g| *g > 0.0).collect();
+    let scale = median(nearest) / median(&positive).max(f32::MIN_POSITIVE);
+    shape
+        .iter()
+        .zip(nearest)
+        .map(|(&g, &r)| if g > 0.0 { (g * scale).min(max) } else { r })
+        .collect()
 }
 
 /// Builds the subtree of `spheres[start..end]` (median split on the longest axis of the
@@ -309,6 +403,84 @@ mod tests {
     }
 
     #[test]
+    fn balanced_radii_shrink_with_the_extinction_and_keep_the_median() {
+        // Uniform photons, half stored where σt = 1 and half where σt = 16 (alternating):
+        // their k-NN distances are alike, so the balanced radii differ by 16^(−4/7) ≈ 0.2
+        // between the halves, and their median is the median k-NN distance.
+        let mut map = uniform_cloud(4000, 1.0, 7);
+        let photons: Vec<_> = map
+            .photons()
+            .iter()
+            .enumerate()
+            .map(|(i, p)| crate::photon::Photon {
+                sigma_t: if i % 2 == 0 { 1.0 } else { 16.0 },
+                ..*p
+            })
+            .collect();
+        map = PhotonMap::new(photons, Default::default());
+        let radii = |rule| {
+            photon_radii(
+                &map,
+                BeamRadius::Nearest {
+                    k: 10,
+                    max: 1.0,
+                    scale: 1.0,
+                    rule,
+                },
+            )
+        };
+        let (nearest, balanced, global) = (
+            radii(RadiusRule::Nearest),
+            radii(RadiusRule::Balanced),
+            radii(RadiusRule::Global),
+        );
+        assert!(global.iter().all(|&r| r == median(&nearest)));
+        assert!((median(&balanced) / median(&nearest) - 1.0).abs() < 0.02);
+        let half = |parity: usize| -> Vec<f32> {
+            balanced.iter().skip(parity).step_by(2).copied().collect()
+        };
+        let ratio = median(&half(1)) / median(&half(0));
+        assert!(
+            (ratio / 16f32.powf(-4.0 / 7.0) - 1.0).abs() < 0.1,
+            "{ratio}"
+        );
+    }
+
+    #[test]
+    fn the_density_at_a_point_sums_exactly_the_spheres_that_hold_it() {
+        let map = uniform_cloud(3000, 1.0, 3);
+        let scene = crate::test_util::scene(crate::test_util::SMALL_SCENE);
+        let radius = BeamRadius::Nearest {
+            k: 8,
+            max: 0.2,
+            scale: 1.0,
+            rule: RadiusRule::Nearest,
+        };
+        let beams = BeamMap::new(&map, radius, scene.medium(), false);
+        let radii = photon_radii(&map, radius);
+        let mut rng = crate::math::Rng::stream(4, crate::math::Domain::Misc, 2);
+        let mut stack = Vec::new();
+        for _ in 0..200 {
+            let x = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+            let got = beams.density_at(x, Gathered::Flux, Phase::ISOTROPIC, Vec3::Z, &mut stack);
+            let expected: Vec3 = map
+                .photons()
+                .iter()
+                .zip(&radii)
+                .filter(|(p, r)| (p.position - x).length_squared() < *r * *r)
+                .map(|(p, r)| {
+                    let term = PhotonMap::term(p, Gathered::Flux, Phase::ISOTROPIC, Vec3::Z);
+                    term / (4.0 / 3.0 * std::f32::consts::PI * r * r * r)
+                })
+                .sum();
+            assert!(
+                (got - expected).length() <= 1e-4 * expected.length().max(1e-6),
+                "{got} vs {expected}"
+            );
+        }
+    }
+
+    #[test]
     fn nearest_radii_are_the_kth_neighbour_distance() {
         let map = uniform_cloud(2000, 1.0, 7);
         let radii = photon_radii(
@@ -317,6 +489,7 @@ mod tests {
                 k: 10,
                 max: 1.0,
                 scale: 1.0,
+                rule: RadiusRule::Nearest,
             },
         );
         for (i, p) in map.photons().iter().enumerate().step_by(97) {

@@ -117,14 +117,112 @@ pub fn photons_per_light(lights: &[Light], total: u64) -> Vec<u64> {
     counts
 }
 
+/// What the paths of one chunk of photons did, whatever they record.
+#[derive(Default)]
+pub(super) struct PathCounters {
+    /// Lengths of the flights between interactions (see [`PhotonStats::mean_flight_distance`]).
+    pub(super) flights: Vec<f32>,
+    pub(super) interactions: u64,
+    pub(super) escaped: u64,
+    pub(super) absorbed: u64,
+    pub(super) truncated: u64,
+}
+
+impl PathCounters {
+    /// Adds another chunk's counters.
+    pub(super) fn merge(&mut self, other: PathCounters) {
+        self.flights.extend(other.flights);
+        self.interactions += other.interactions;
+        self.escaped += other.escaped;
+        self.absorbed += other.absorbed;
+        self.truncated += other.truncated;
+    }
+
+    /// The statistics of `total` emitted photons (`per_light` of them per light) from these
+    /// counters; what was stored is the caller's to fill in.
+    pub(super) fn stats(mut self, total: u64, per_light: Vec<u64>) -> PhotonStats {
+        let mut stats = PhotonStats {
+            emitted: total,
+            emitted_per_light: per_light,
+            escaped_without_interaction: self.escaped,
+            absorbed: self.absorbed,
+            truncated: self.truncated,
+            ..Default::default()
+        };
+        if total > 0 {
+            stats.interactions_per_photon = self.interactions as f64 / total as f64;
+        }
+        if !self.flights.is_empty() {
+            stats.mean_flight_distance =
+                self.flights.iter().map(|&f| f as f64).sum::<f64>() / self.flights.len() as f64;
+            let mid = self.flights.len() / 2;
+            let (_, median, _) = self
+                .flights
+                .select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+            stats.median_flight_distance = *median as f64;
+        }
+        stats
+    }
+}
+
+/// One flight of a photon path through the box: from `ray.origin` along `ray.direction`
+/// carrying `power`, over `[t0, t1]` (the box, clipped), ending at the interaction `hit`
+/// (or leaving the box when `None`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Flight {
+    pub(crate) ray: Ray,
+    pub(crate) power: Vec3,
+    pub(crate) t0: f32,
+    pub(crate) t1: f32,
+    pub(crate) hit: Option<f32>,
+    /// The direction the path went on in after `hit`, when it scattered there.
+    pub(crate) next: Option<Vec3>,
+}
+
+/// What a photon path is recorded as: stored photons at its interactions, or its flights.
+pub(crate) trait PathRecord {
+    /// An interaction at `position`, reached along `direction` with `power`, after
+    /// `scattered` scatterings.
+    fn interaction(
+        &mut self,
+        medium: &Medium,
+        position: Vec3,
+        direction: Vec3,
+        power: Vec3,
+        scattered: u32,
+    );
+    /// A flight through the box, once its end is known.
+    fn flight(&mut self, flight: &Flight);
+}
+
 #[derive(Default)]
 struct Chunk {
     photons: Vec<Photon>,
-    flights: Vec<f32>,
-    interactions: u64,
-    escaped: u64,
-    absorbed: u64,
-    truncated: u64,
+    counters: PathCounters,
+}
+
+impl PathRecord for Vec<Photon> {
+    /// Stores a photon at every interaction after the first scattering: direct light is
+    /// left to ray marching.
+    fn interaction(
+        &mut self,
+        medium: &Medium,
+        position: Vec3,
+        direction: Vec3,
+        power: Vec3,
+        scattered: u32,
+    ) {
+        if scattered >= 1 {
+            self.push(Photon {
+                position,
+                direction,
+                power,
+                sigma_t: medium.sigma_t(position),
+            });
+        }
+    }
+
+    fn flight(&mut self, _: &Flight) {}
 }
 
 /// Traces photons from every light through the medium and returns the stored photons in
@@ -137,6 +235,52 @@ pub fn trace(
     control: &Control<'_>,
 ) -> Result<(Vec<Photon>, PhotonStats)> {
     let start = Instant::now();
+    let (chunk, total, per_light) = trace_chunks(
+        lights,
+        settings,
+        control,
+        |photon, chunk: &mut Chunk| {
+            walk_path(
+                medium,
+                photon,
+                settings,
+                &mut chunk.photons,
+                &mut chunk.counters,
+            )
+        },
+        |all: &mut Chunk, other: Chunk| {
+            all.photons.extend(other.photons);
+            all.counters.merge(other.counters);
+        },
+    )?;
+    let mut stats = chunk.counters.stats(total, per_light);
+    let photons = chunk.photons;
+    stats.stored = photons.len() as u64;
+    stats.stored_power = photons
+        .iter()
+        .map(|p| (p.power.x as f64 + p.power.y as f64 + p.power.z as f64) / 3.0)
+        .sum();
+    stats.seconds = start.elapsed().as_secs_f64();
+    Ok((photons, stats))
+}
+
+/// Photon `index` leaving its light: the light, its power share, and its random stream.
+pub(crate) struct Emitted<'a> {
+    pub(crate) light: &'a Light,
+    pub(crate) power: Vec3,
+    pub(crate) index: u64,
+}
+
+/// Runs `one` for every emitted photon, in parallel chunks of 1024 photons (the time limit
+/// checked between them), and joins the chunks in photon-index order with `join`. Returns
+/// the joined record, the photons emitted and their split over the lights.
+pub(crate) fn trace_chunks<C: Default + Send>(
+    lights: &[Light],
+    settings: &TraceSettings,
+    control: &Control<'_>,
+    one: impl Fn(Emitted<'_>, &mut C) + Sync,
+    join: impl Fn(&mut C, C),
+) -> Result<(C, u64, Vec<u64>)> {
     let per_light = photons_per_light(lights, settings.photons);
     // Photon i belongs to the first light whose cumulative count exceeds i.
     let ends: Vec<u64> = per_light
@@ -148,10 +292,10 @@ pub fn trace(
         .collect();
     let total = ends.last().copied().unwrap_or(0);
     const CHUNK: u64 = 1024;
-    let chunks: Vec<Chunk> = (0..total.div_ceil(CHUNK))
+    let chunks: Vec<C> = (0..total.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
-            let mut chunk = Chunk::default();
+            let mut chunk = C::default();
             if control.expired() {
                 return chunk;
             }
@@ -159,65 +303,56 @@ pub fn trace(
                 let light_index = ends.partition_point(|&e| e <= i);
                 let light = &lights[light_index];
                 let power = light.power() / per_light[light_index] as f32;
-                trace_one(medium, light, power, i, settings, &mut chunk);
+                one(
+                    Emitted {
+                        light,
+                        power,
+                        index: i,
+                    },
+                    &mut chunk,
+                );
             }
             chunk
         })
         .collect();
     control.check()?;
-    let mut photons = Vec::new();
-    let mut flights = Vec::new();
-    let mut stats = PhotonStats {
-        emitted: total,
-        emitted_per_light: per_light,
-        ..Default::default()
-    };
-    let mut interactions = 0u64;
+    let mut joined = C::default();
     for c in chunks {
-        photons.extend(c.photons);
-        flights.extend(c.flights);
-        interactions += c.interactions;
-        stats.escaped_without_interaction += c.escaped;
-        stats.absorbed += c.absorbed;
-        stats.truncated += c.truncated;
+        join(&mut joined, c);
     }
-    stats.stored = photons.len() as u64;
-    stats.interactions_per_photon = if total > 0 {
-        interactions as f64 / total as f64
-    } else {
-        0.0
-    };
-    if !flights.is_empty() {
-        stats.mean_flight_distance =
-            flights.iter().map(|&f| f as f64).sum::<f64>() / flights.len() as f64;
-        let mid = flights.len() / 2;
-        let (_, median, _) = flights.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
-        stats.median_flight_distance = *median as f64;
-    }
-    stats.stored_power = photons
-        .iter()
-        .map(|p| (p.power.x as f64 + p.power.y as f64 + p.power.z as f64) / 3.0)
-        .sum();
-    stats.seconds = start.elapsed().as_secs_f64();
-    Ok((photons, stats))
+    Ok((joined, total, per_light))
 }
 
-fn trace_one(
+/// Follows one photon from its light through the medium (free paths by the settings' rule,
+/// Russian roulette with the albedo, phase-function scattering), telling `record` of every
+/// interaction and flight. The path draws from the stream `(seed, Photons, index)` alone.
+pub(crate) fn walk_path(
     medium: &Medium,
-    light: &Light,
-    power: Vec3,
-    index: u64,
+    photon: Emitted<'_>,
     s: &TraceSettings,
-    out: &mut Chunk,
+    record: &mut impl PathRecord,
+    out: &mut PathCounters,
 ) {
-    let mut rng = Rng::stream(s.seed, Domain::Photons, index);
-    let mut ray = Ray::new(light.position(), light.sample_direction(&mut rng));
-    let mut power = power;
+    let mut rng = Rng::stream(s.seed, Domain::Photons, photon.index);
+    let mut ray = Ray::new(
+        photon.light.position(),
+        photon.light.sample_direction(&mut rng),
+    );
+    let mut power = photon.power;
     let mut scattered = 0u32;
     let mut interactions = 0u32;
     while let Some((t0, t1)) = medium.clip(&ray) {
-        let hit = medium.sample_free_path(s.free_path, &ray, t0, t1, s.stepsize, &mut rng);
-        let Some(t) = hit else {
+        let mut flight = Flight {
+            ray,
+            power,
+            t0,
+            t1,
+            hit: None,
+            next: None,
+        };
+        flight.hit = medium.sample_free_path(s.free_path, &ray, t0, t1, s.stepsize, &mut rng);
+        let Some(t) = flight.hit else {
+            record.flight(&flight);
             break;
         };
         let position = ray.at(t);
@@ -227,15 +362,9 @@ fn trace_one(
             out.flights.push(t - t0);
         }
         interactions += 1;
-        if scattered >= 1 {
-            out.photons.push(Photon {
-                position,
-                direction: ray.direction,
-                power,
-                sigma_t: medium.sigma_t(position),
-            });
-        }
+        record.interaction(medium, position, ray.direction, power, scattered);
         if interactions >= MAX_INTERACTIONS {
+            record.flight(&flight);
             out.truncated += 1;
             out.interactions += interactions as u64;
             return;
@@ -245,6 +374,7 @@ fn trace_one(
         let albedo = medium.albedo_at(position);
         let survive = crate::medium::survival_probability(albedo);
         if rng.uniform() >= survive {
+            record.flight(&flight);
             out.absorbed += 1;
             out.interactions += interactions as u64;
             return;
@@ -252,6 +382,8 @@ fn trace_one(
         power *= albedo / survive;
         scattered += 1;
         let direction = medium.phase().sample(ray.direction, rng.uniform2());
+        flight.next = Some(direction);
+        record.flight(&flight);
         ray = Ray::new(position, direction);
     }
     if interactions == 0 {

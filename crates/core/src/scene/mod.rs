@@ -58,8 +58,9 @@ pub use params::{
 };
 pub use pbrt::{PbrtImport, Unmapped, import_pbrt};
 pub use settings::{
-    DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW, Estimate, FilmParams,
-    InitialRadius, IntegratorParams, Method, MsEstimator, Quadrature, ShadowEstimator, Tracker,
+    DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW, Estimate, EyeRays, FilmParams,
+    InitialRadius, IntegratorParams, Method, MsEstimator, Quadrature, RadiusRule, ShadowEstimator,
+    Tracker,
 };
 
 use crate::error::Result;

@@ -22,10 +22,12 @@
 //! | `reference_spp` | 64 | reference path tracer passes: samples per pixel (with `tracker = "weighted"` on average, by cost) |
 //! | `tracker` | `weighted` | how the path tracer samples paths; `delta` is the tracer every reference before issue #47 was rendered with |
 //! | `seed` | 1 | |
-//! | `estimator` | `points` | the thesis's k-NN point estimate; `progressive` and `beam` are consistent / stepsize-free alternatives |
-//! | `alpha` | 0.3 | radius shrink per iteration: `((i+α)/(i+1))^{1/3}` for points (3-D kernel), `^{1/2}` for beams (a 2-D kernel across the ray) |
+//! | `estimator` | `points` | the thesis's k-NN point estimate; `progressive`, `beam` and `plane` are consistent / stepsize-free alternatives |
+//! | `alpha` | 0.3 | radius shrink per iteration: `((i+α)/(i+1))^{1/3}` for points (3-D kernel), `^{1/2}` for beams (a 2-D kernel across the ray), `^1` for planes (a 1-D blur) |
 //! | `iterations`, `photons_per_iteration`, `time_budget` | 16, 0 (= `volume_photons`), 0 (none) | progressive and beam: independent photon maps averaged (beam with 1: the plain beam estimate) |
 //! | `target_rmse` | 0 (off) | progressive and beam: stop after the iteration whose image is within this RMSE of the reference (in an experiment with `[reference]`) |
+//! | `radius` | `auto` | progressive and beam: `global` (one radius; progressive's `auto`), `nearest` (each photon's `nused`-th-neighbour distance; the beams' `auto`) or `balanced` (`r_k^{3/7}·σt^{−4/7}`, the asymptotic-MSE balance) |
+//! | `eye_rays` | `replayed` | progressive, beam and plane: later iterations shade the first one's eye samples; `fresh` draws new eye rays every iteration and averages every layer (converges per pixel, a full march per iteration) |
 //! | `initial_radius` | `nused` | progressive: median `nused`-th-neighbour distance of the first map; beam: each photon's own `nused`-th-neighbour distance (or `maxdist` for both) |
 //! | `film.exposure` | 0 | stops applied before sRGB encoding |
 
@@ -129,6 +131,14 @@ pub enum MsEstimator {
     /// every photon whose sphere an eye ray crosses, weighted by the exact eye
     /// transmittance over its chord; no `stepsize` and no k-NN query per sample.
     Beam,
+    /// Photon planes with a 1-D blur (Bitterli & Jarosz 2017, "Beyond points and beams"):
+    /// each flight of a photon path swept along the direction sampled at its end, met by
+    /// the eye ray at a point — both free flights integrated, no density estimate. In a
+    /// heterogeneous medium the plane ends at the flight's delta-tracked interaction and,
+    /// along its second direction, where the exact optical depth passes one sampled
+    /// `τ* ~ Exp(1)`: unbiased transmittance both ways. The blur half-width starts at
+    /// `maxdist` and shrinks by `(i + α)/(i + 1)` per iteration (a 1-D kernel).
+    Plane,
 }
 
 /// Where the progressive estimate's first radius comes from.
@@ -156,6 +166,50 @@ pub enum Tracker {
     /// after the first vertex, and each pixel's share of the samples set by a pilot. The
     /// default: 1.5–1.9× as efficient as `delta` on the thesis's frames (issue #47).
     Weighted,
+}
+
+/// How the kernel radius of the progressive and beam estimators varies in space. Each rule
+/// sets the first iteration's radii; every later iteration scales them all by the same
+/// factor (`alpha`), which keeps each rule consistent.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RadiusRule {
+    /// Each estimator's rule from before the rule was a setting: `global` for progressive
+    /// points, `nearest` for beams. The default.
+    #[default]
+    Auto,
+    /// One radius everywhere: the median `nused`-th-neighbour distance of the first map (or
+    /// `maxdist`, as `initial_radius` says), as in Knaus & Zwicker's probabilistic PPM.
+    Global,
+    /// Each photon's own distance to its `nused`-th neighbour (at most `maxdist`): radii
+    /// follow the photon density, small where photons crowd and wide where they are
+    /// sparse (the per-beam radii of progressive photon beams, Jarosz et al. 2011).
+    Nearest,
+    /// The radius that balances a 3-D kernel's squared bias against its variance (the
+    /// asymptotic-MSE rule behind adaptive progressive photon mapping, Kaplanyan &
+    /// Dachsbacher 2013): `r ∝ (ρ·κ⁴)^(−1/7)` for photon density `ρ` and a fluence that
+    /// curves on the scale `1/κ`. In a scattering medium the fluence varies over the
+    /// diffusion length, so `κ ∝ σt`, and with `ρ ∝ 1/r_k³` from the `nused`-th
+    /// neighbour this is `r ∝ r_k^(3/7)·σt^(−4/7)`, scaled so that its median is the
+    /// median `r_k` (at most `maxdist`): smaller than `Nearest` in dense tissue, where
+    /// the fluence curves fast, wider in thin tissue.
+    Balanced,
+}
+
+/// Which eye rays the iterations of a progressive, beam or plane render shade.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EyeRays {
+    /// The first iteration's: later iterations shade its eye samples again with their own
+    /// photons, and the single and emission layers come from the first march alone. Cheap
+    /// (no march after the first), but the image converges to the estimate of those fixed
+    /// rays, so each pixel keeps the sampling error of its `spp` jittered rays.
+    #[default]
+    Replayed,
+    /// New jittered eye rays every iteration (stochastic progressive photon mapping,
+    /// Hachisuka & Jensen 2009): every layer is the mean over the iterations, so the image
+    /// converges to each pixel's integral, at the cost of a full march per iteration.
+    Fresh,
 }
 
 /// Which renderer produces the image.
@@ -243,6 +297,22 @@ pub struct IntegratorParams {
     pub target_rmse: f32,
     /// Progressive: where the first radius comes from.
     pub initial_radius: InitialRadius,
+    /// Progressive and beam: how the radius varies in space. Not written when `auto`, so
+    /// the content addresses of cells that do not set it stay what they were.
+    #[serde(skip_serializing_if = "is_auto")]
+    pub radius: RadiusRule,
+    /// Progressive, beam and plane: which eye rays the iterations shade. Not written when
+    /// `replayed`, so the content addresses of cells that do not set it stay what they were.
+    #[serde(skip_serializing_if = "is_replayed")]
+    pub eye_rays: EyeRays,
+}
+
+fn is_auto(r: &RadiusRule) -> bool {
+    *r == RadiusRule::Auto
+}
+
+fn is_replayed(e: &EyeRays) -> bool {
+    *e == EyeRays::Replayed
 }
 
 fn is_zero(x: &f32) -> bool {
@@ -281,6 +351,8 @@ impl Default for IntegratorParams {
             time_budget: 0.0,
             target_rmse: 0.0,
             initial_radius: InitialRadius::Nused,
+            radius: RadiusRule::Auto,
+            eye_rays: EyeRays::Replayed,
         }
     }
 }
@@ -431,8 +503,28 @@ impl IntegratorParams {
                 "0 with estimator = \"points\" (only the progressive and beam estimators iterate towards a target)",
             ));
         }
-        if self.estimator == MsEstimator::Beam {
-            self.validate_beam()?;
+        match self.estimator {
+            MsEstimator::Beam => self.validate_beam(),
+            MsEstimator::Plane => self.validate_plane(),
+            MsEstimator::Points | MsEstimator::Progressive => Ok(()),
+        }
+    }
+
+    /// What photon planes cannot combine with.
+    fn validate_plane(&self) -> Result<()> {
+        if self.free_path != FreePath::Delta {
+            return Err(Error::parameter(
+                "free_path",
+                format!("{:?}", self.free_path).to_lowercase(),
+                "`delta` with estimator = \"plane\" (a plane ends at its flight's sampled interaction, which stands in for the transmittance only when the free path is sampled exactly)",
+            ));
+        }
+        if self.ms_cache > 0 {
+            return Err(Error::parameter(
+                "ms_cache",
+                self.ms_cache,
+                "0 with estimator = \"plane\" (photon planes have no per-sample gathers to cache)",
+            ));
         }
         Ok(())
     }

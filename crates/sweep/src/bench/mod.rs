@@ -20,6 +20,7 @@ use volphot::{
     process_cpu_seconds,
 };
 
+mod estimators;
 mod machine;
 mod peer;
 mod reference;
@@ -273,7 +274,7 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     }
     match args.mode {
         BenchMode::Peer => return peer::run(args, &scene_path, &params),
-        BenchMode::Estimators => return peer::run_estimators(args, &scene_path, &params),
+        BenchMode::Estimators => return estimators::run(args, &scene_path, &params),
         BenchMode::Configurations | BenchMode::Reference => {}
     }
     let pool = crate::render::thread_pool(args.threads)?;

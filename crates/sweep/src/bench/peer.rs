@@ -18,8 +18,8 @@ use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use volphot::{
-    Control, Film, IntegratorParams, Layer, Method, MsEstimator, ReferenceAccumulator, Scene,
-    SceneParams, SearchPath, Tracker, export_mitsuba, process_cpu_seconds, read_pfm,
+    Control, Film, IntegratorParams, Layer, Method, ReferenceAccumulator, Scene, SceneParams,
+    SearchPath, Tracker, export_mitsuba, process_cpu_seconds, read_pfm,
 };
 
 use super::BenchOptions;
@@ -28,7 +28,7 @@ use crate::analyse::mse_against_noisy_reference;
 /// Which part of the light a comparison is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
-enum Part {
+pub(super) enum Part {
     /// Single scattering (Mitsuba `max_depth` 2; volphot's single layer).
     Single,
     /// Everything (Mitsuba `max_depth` −1; volphot's single + multiple layers).
@@ -51,13 +51,13 @@ impl Part {
 }
 
 /// The converged reference of one part: image and per-pixel variance of its mean.
-struct Reference {
-    image: Vec<Vec3>,
-    variance: Vec<Vec3>,
+pub(super) struct Reference {
+    pub(super) image: Vec<Vec3>,
+    pub(super) variance: Vec<Vec3>,
 }
 
 impl Reference {
-    fn mean(&self) -> f64 {
+    pub(super) fn mean(&self) -> f64 {
         mean_of(&self.image)
     }
     /// Standard error of the image mean (pixels independent).
@@ -69,17 +69,17 @@ impl Reference {
 
 /// One row of the time-to-error table (means over seeds).
 #[derive(Debug, Serialize)]
-struct Row {
-    renderer: String,
-    part: Part,
-    setting: String,
-    seeds: usize,
-    cpu_s: f64,
-    rmse: f64,
+pub(super) struct Row {
+    pub(super) renderer: String,
+    pub(super) part: Part,
+    pub(super) setting: String,
+    pub(super) seeds: usize,
+    pub(super) cpu_s: f64,
+    pub(super) rmse: f64,
     /// RMSE² × CPU-s: lower is better, independent of the sample count for unbiased
     /// renderers.
-    efficiency: f64,
-    mean_ratio: f64,
+    pub(super) efficiency: f64,
+    pub(super) mean_ratio: f64,
 }
 
 /// How many times as efficient (RMSE²·CPU-s) a volphot renderer is as Mitsuba.
@@ -194,106 +194,6 @@ pub(crate) fn run(
     Ok(ExitCode::SUCCESS)
 }
 
-/// `sweep bench --estimators`: volphot's multiple-scattering estimators and its path
-/// tracer against one converged reference of the whole image (no peer renderer).
-pub(crate) fn run_estimators(
-    args: &BenchOptions,
-    scene_path: &Path,
-    params: &SceneParams,
-) -> Result<ExitCode> {
-    let pool = crate::render::thread_pool(args.threads)?;
-    let base = scene_path.parent().unwrap_or(Path::new("."));
-    let scene = pool.install(|| Scene::from_params(params, base, &SearchPath::from_env()))?;
-    let passes = args.reference_passes.unwrap_or(1024);
-    eprintln!("estimators: reference ({passes} passes) and renders…");
-    let rows = pool.install(|| -> Result<Vec<Row>> {
-        let reference = reference(&scene, Part::All, passes)?;
-        let mut rows = path_rows(&scene, Part::All, &reference, &args.peer_spp, args.seeds)?;
-        rows.extend(estimator_rows(&scene, &reference, args.seeds)?);
-        Ok(rows)
-    })?;
-    let report = PeerReport {
-        machine: super::Machine::describe(),
-        scene: scene_path.display().to_string(),
-        resolution: params.camera.resolution,
-        reference_passes: passes,
-        mitsuba_variant: String::new(),
-        mitsuba_version: String::new(),
-        agreement: Vec::new(),
-        rows,
-        efficiency_vs_mitsuba: Vec::new(),
-    };
-    print_rows(&report.rows);
-    print_time_to_error(&report.rows);
-    if let Some(path) = &args.json {
-        volphot::write_atomic(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-/// The estimators compared by `--estimators`: (name, estimator, photons factor, iterations).
-const ESTIMATORS: [(&str, MsEstimator, u64, u32); 6] = [
-    ("points", MsEstimator::Points, 1, 1),
-    ("points 10× photons", MsEstimator::Points, 10, 1),
-    ("progressive 16 it.", MsEstimator::Progressive, 1, 16),
-    ("progressive 64 it.", MsEstimator::Progressive, 1, 64),
-    ("beam", MsEstimator::Beam, 1, 1),
-    ("beam 16 it.", MsEstimator::Beam, 1, 16),
-];
-
-fn estimator_rows(scene: &Scene, reference: &Reference, seeds: u32) -> Result<Vec<Row>> {
-    let photons = scene.integrator().volume_photons;
-    let mut rows = Vec::new();
-    for (name, estimator, factor, iterations) in ESTIMATORS {
-        let runs = (0..seeds as u64)
-            .map(|k| {
-                let seed = scene.integrator().seed.wrapping_add(1 + k);
-                let s = photon_scene(scene, Part::All, seed, |integrator| {
-                    integrator.estimator = estimator;
-                    integrator.volume_photons = photons.saturating_mul(factor);
-                    integrator.iterations = iterations;
-                })?;
-                let (out, cpu) = cpu_timed(|| Ok(volphot::render(&s, &Control::none())?))?;
-                Ok((part_of(&out.film, Part::All), cpu))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        let setting = format!("{name} ({} photons)", photons.saturating_mul(factor));
-        rows.push(row("volphot photon", Part::All, setting, reference, &runs));
-    }
-    Ok(rows)
-}
-
-/// CPU-seconds each row needs for RMSE 0.02 and 0.01: the path tracer's extrapolated from
-/// its efficiency (unbiased: MSE ∝ 1/time), the photon estimators' only where measured
-/// (their error has a bias floor; more time does not lower it by a known law).
-fn print_time_to_error(rows: &[Row]) {
-    let best_path = rows
-        .iter()
-        .filter(|r| r.renderer == "volphot path")
-        .map(|r| r.efficiency)
-        .fold(f64::INFINITY, f64::min);
-    println!("CPU-seconds to reach RMSE 0.02 / 0.01:");
-    println!(
-        "  path tracer (extrapolated from its best RMSE²·CPU-s): {:.1} / {:.1}",
-        best_path / 0.02f64.powi(2),
-        best_path / 0.01f64.powi(2)
-    );
-    for r in rows.iter().filter(|r| r.renderer == "volphot photon") {
-        let reach = |target: f64| {
-            if r.rmse <= target {
-                format!(
-                    "{:.1} (×{:.2} the path tracer)",
-                    r.cpu_s,
-                    r.cpu_s * target * target / best_path
-                )
-            } else {
-                "not reached".into()
-            }
-        };
-        println!("  {:<44} {} / {}", r.setting, reach(0.02), reach(0.01));
-    }
-}
-
 fn join(values: &[u32]) -> String {
     values
         .iter()
@@ -306,7 +206,7 @@ fn mean3(v: Vec3) -> f64 {
     (v.x as f64 + v.y as f64 + v.z as f64) / 3.0
 }
 
-fn mean_of(image: &[Vec3]) -> f64 {
+pub(super) fn mean_of(image: &[Vec3]) -> f64 {
     image.iter().map(|v| mean3(*v)).sum::<f64>() / image.len() as f64
 }
 
@@ -322,7 +222,7 @@ fn scene_for(scene: &Scene, part: Part, seed: u64) -> Result<Scene> {
 /// The scene of a "volphot photon" row: the photon-mapping integrator whatever method the
 /// scene itself asks for (a scene with `method = "reference"` would otherwise make every
 /// photon row a path-traced render), on one part and seed, with the row's settings.
-fn photon_scene(
+pub(super) fn photon_scene(
     scene: &Scene,
     part: Part,
     seed: u64,
@@ -337,7 +237,7 @@ fn photon_scene(
 }
 
 /// A part of a film: the single layer, or single + multiple.
-fn part_of(film: &Film, part: Part) -> Vec<Vec3> {
+pub(super) fn part_of(film: &Film, part: Part) -> Vec<Vec3> {
     match part {
         Part::Single => film.layer(Layer::Single).to_vec(),
         Part::All => film.combine(&[Layer::Single, Layer::Multiple]),
@@ -346,11 +246,7 @@ fn part_of(film: &Film, part: Part) -> Vec<Vec3> {
 
 /// The converged reference: volphot's path tracer with a seed no compared render uses.
 fn reference(scene: &Scene, part: Part, passes: u32) -> Result<Reference> {
-    let s = scene_for(scene, part, scene.integrator().seed.wrapping_add(1_000_003))?;
-    let camera = s.camera();
-    let mut acc = ReferenceAccumulator::new(camera.width() as usize, camera.height() as usize);
-    acc.add_passes(&s, passes, &Control::none())?;
-    let film = acc.film();
+    let (film, acc) = reference_film(scene, part, passes)?;
     let variance = match part {
         Part::Single => film
             .variance(Layer::Single)
@@ -362,6 +258,32 @@ fn reference(scene: &Scene, part: Part, passes: u32) -> Result<Reference> {
         image: part_of(&film, part),
         variance,
     })
+}
+
+/// The converged reference of the whole image and of its single and multiple layers, from
+/// one path-traced film.
+pub(super) fn reference_layers(scene: &Scene, passes: u32) -> Result<[Reference; 3]> {
+    let (film, acc) = reference_film(scene, Part::All, passes)?;
+    let layer = |l: Layer| -> Result<Reference> {
+        Ok(Reference {
+            image: film.layer(l).to_vec(),
+            variance: film.variance(l).context("reference variance")?.to_vec(),
+        })
+    };
+    let all = Reference {
+        image: part_of(&film, Part::All),
+        variance: acc.total_variance().context("reference total variance")?,
+    };
+    Ok([all, layer(Layer::Single)?, layer(Layer::Multiple)?])
+}
+
+/// The path tracer's film of `part` at `passes` passes and its accumulator.
+fn reference_film(scene: &Scene, part: Part, passes: u32) -> Result<(Film, ReferenceAccumulator)> {
+    let s = scene_for(scene, part, scene.integrator().seed.wrapping_add(1_000_003))?;
+    let camera = s.camera();
+    let mut acc = ReferenceAccumulator::new(camera.width() as usize, camera.height() as usize);
+    acc.add_passes(&s, passes, &Control::none())?;
+    Ok((acc.film(), acc))
 }
 
 /// Runs `peer_mitsuba.py` for both parts and every spp and seed.
@@ -427,7 +349,7 @@ fn peer_script() -> Result<PathBuf> {
 }
 
 /// A row from several seeds' images and CPU-seconds.
-fn row(
+pub(super) fn row(
     renderer: &str,
     part: Part,
     setting: String,
@@ -480,7 +402,7 @@ fn mitsuba_rows(
 }
 
 /// CPU-seconds of `f`, all threads.
-fn cpu_timed<T>(f: impl FnOnce() -> Result<T>) -> Result<(T, f64)> {
+pub(super) fn cpu_timed<T>(f: impl FnOnce() -> Result<T>) -> Result<(T, f64)> {
     let start = process_cpu_seconds().context("CPU time is not available here")?;
     let value = f()?;
     Ok((value, process_cpu_seconds().unwrap_or(start) - start))
@@ -488,7 +410,7 @@ fn cpu_timed<T>(f: impl FnOnce() -> Result<T>) -> Result<(T, f64)> {
 
 /// The path tracer's rows: the default tracker (`volphot path`) and today's before issue
 /// #47 (`volphot path (delta)`), at each spp.
-fn path_rows(
+pub(super) fn path_rows(
     scene: &Scene,
     part: Part,
     reference: &Reference,
@@ -639,7 +561,7 @@ fn print_report(r: &PeerReport) {
     }
 }
 
-fn print_rows(rows: &[Row]) {
+pub(super) fn print_rows(rows: &[Row]) {
     println!(
         "{:<22} {:<6} {:<34} {:>8} {:>10} {:>12} {:>8}",
         "renderer", "part", "setting", "CPU s", "RMSE", "RMSE²·CPU-s", "mean/ref"
@@ -659,11 +581,11 @@ fn print_rows(rows: &[Row]) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     /// A tiny scene that asks for the path tracer (`method = "reference"`, 4 spp).
-    fn path_traced_scene() -> Scene {
+    pub(in crate::bench) fn path_traced_scene() -> Scene {
         let src = volphot::test_util::SPOT_SPHERE
             .replace("resolution = [20, 20]", "resolution = [8, 8]")
             .replace(
@@ -673,7 +595,7 @@ mod tests {
         volphot::test_util::scene(&src)
     }
 
-    fn image_of(row: &Row) -> (f64, f64) {
+    pub(in crate::bench) fn image_of(row: &Row) -> (f64, f64) {
         (row.rmse, row.mean_ratio)
     }
 
@@ -691,14 +613,5 @@ mod tests {
             assert_ne!(image_of(row), image_of(&path[0]), "{}", row.setting);
         }
         assert_ne!(image_of(&photon[0]), image_of(&photon[1]), "4× photons");
-        let estimators = estimator_rows(&scene, &reference, 1).unwrap();
-        for row in &estimators {
-            assert_ne!(image_of(row), image_of(&path[0]), "{}", row.setting);
-        }
-        assert_ne!(
-            image_of(&estimators[0]),
-            image_of(&estimators[1]),
-            "10× photons"
-        );
     }
 }

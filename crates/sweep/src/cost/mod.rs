@@ -129,9 +129,10 @@ pub(crate) fn estimate_cost(p: &SceneParams, probe: Option<EyeProbe>) -> CellCos
             march: single,
             own: multiple + tracing + record,
         },
-        // Progressive and beam renders march alone: single scattering in the first
-        // pass, then one multiple-scattering pass per photon set.
-        MsEstimator::Progressive | MsEstimator::Beam => {
+        // Progressive, beam and plane renders march alone: single scattering in the first
+        // pass, then one multiple-scattering pass per photon set (a plane pass priced as
+        // a beam pass until a pilot measures it).
+        MsEstimator::Progressive | MsEstimator::Beam | MsEstimator::Plane => {
             let pass = match (i.estimator, i.multiple) {
                 (_, false) => 0.0,
                 (MsEstimator::Progressive, true) => {
