@@ -330,12 +330,17 @@ fn a_target_error_stops_the_iterations_and_every_error_is_recorded() {
 }
 
 /// Replayed eye rays converge to the estimate of the first iteration's rays, whose pixel
-/// sampling error never falls; fresh eye rays average it away: at 64 iterations the fresh
-/// image is far closer to the reference. Their first iteration is the same render.
+/// sampling error never falls; fresh eye rays average it away: from 16 to 64 iterations the
+/// fresh image's error falls by a third (the replayed one's by an eighth, its photon noise
+/// alone), and at 64 the fresh image is closer to the reference. Their first iteration is the same render. The
+/// reference has 65 536 passes: at 8192 its own noise (6 % of the mean with the delta
+/// tracker, 3.5 % with the weighted one) is as large as the errors compared, and removing
+/// it left their ratio at the mercy of its estimate (0.50 with one tracker, 0.66 with the
+/// other; at 65 536 both trackers give 0.66–0.67).
 #[test]
 fn fresh_eye_rays_converge_where_replayed_ones_stop() {
     let scene = sphere();
-    let reference = reference(&scene, 8192);
+    let reference = reference(&scene, 65_536);
     let render_with = |eye_rays, iterations| {
         let s = with(&scene, |s| {
             s.estimator = MsEstimator::Beam;
@@ -355,13 +360,23 @@ fn fresh_eye_rays_converge_where_replayed_ones_stop() {
         replayed, fresh,
         "the first iteration does not depend on later ones"
     );
-    let error = |image: &[glam::Vec3]| excess_error(image, &reference.0, reference.1);
-    let replayed = error(&render_with(EyeRays::Replayed, 64));
-    let fresh = error(&render_with(EyeRays::Fresh, 64));
+    let error = |eye_rays, iterations| {
+        excess_error(
+            &render_with(eye_rays, iterations),
+            &reference.0,
+            reference.1,
+        )
+    };
+    let replayed = [error(EyeRays::Replayed, 16), error(EyeRays::Replayed, 64)];
+    let fresh = [error(EyeRays::Fresh, 16), error(EyeRays::Fresh, 64)];
     eprintln!(
-        "64 iterations, rRMSE beyond the reference's noise: replayed {replayed:.4}, fresh {fresh:.4}"
+        "rRMSE beyond the reference's noise at 16 and 64 iterations: replayed {replayed:.4?}, fresh {fresh:.4?}"
     );
-    assert!(fresh < 0.6 * replayed, "replayed {replayed}, fresh {fresh}");
+    assert!(fresh[1] < 0.85 * fresh[0], "fresh keeps falling: {fresh:?}");
+    assert!(
+        fresh[1] < 0.8 * replayed[1],
+        "replayed {replayed:?}, fresh {fresh:?}"
+    );
 }
 
 /// With fresh eye rays every radius rule of the progressive points and the beams, and the
