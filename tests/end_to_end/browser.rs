@@ -15,6 +15,7 @@ use headless_chrome::protocol::cdp::{Log, Page, Runtime};
 use headless_chrome::{Browser, LaunchOptions, Tab};
 use volphot_tests::{run_ok, skip, sweep, write_experiment};
 
+mod committed;
 mod explorer;
 mod firefox;
 

@@ -484,9 +484,10 @@ pub(crate) struct BenchArgs {
     /// `--scene`) at each `--sigma-t`.
     #[arg(long, conflicts_with_all = ["peer", "estimators", "only"])]
     pub(crate) reference: bool,
-    /// With `--reference`: the σt(d_min) values (comma-separated; the scenes' σ mapping
-    /// must be the thesis's).
-    #[arg(long, value_delimiter = ',', default_values_t = [80.0f32, 6.0], requires = "reference")]
+    /// σt(d_min) (the scene's σ mapping must be the thesis's): with `--reference` the
+    /// values compared (comma-separated, default 80,6); otherwise one value, set on the
+    /// benchmarked scene.
+    #[arg(long, value_delimiter = ',')]
     pub(crate) sigma_t: Vec<f32>,
     /// With `--reference`: passes of each measured render (the first is timed apart, as
     /// it holds the weighted tracker's pilot).
@@ -668,7 +669,11 @@ impl BenchArgs {
             resolution: self.resolution,
             peer_dir: self.peer_dir.clone(),
             json: self.json.clone(),
-            sigma_t: self.sigma_t.clone(),
+            sigma_t: if self.sigma_t.is_empty() && self.reference {
+                vec![80.0, 6.0]
+            } else {
+                self.sigma_t.clone()
+            },
             passes: self.passes,
             reference_pool: self.reference_pool.clone(),
         }

@@ -19,7 +19,7 @@ use super::explorer::{brightest, cell_at, check_readout, film_of};
 use super::{kept_dir, small_report};
 
 /// Firefox from `$FIREFOX` or the usual Debian paths.
-fn firefox() -> Option<PathBuf> {
+pub(super) fn firefox() -> Option<PathBuf> {
     std::env::var_os("FIREFOX")
         .map(PathBuf::from)
         .into_iter()
@@ -75,7 +75,7 @@ const PROBE: &str = r#"<script>
 
 /// Runs Firefox on `page` until the probe reports (or a minute passes) and returns the
 /// report.
-fn run_probe(firefox: &Path, dir: &Path, page: &Path) -> Value {
+pub(super) fn run_probe(firefox: &Path, dir: &Path, page: &Path) -> Value {
     let profile = dir.join("firefox-profile");
     std::fs::create_dir_all(&profile).unwrap();
     std::fs::write(

@@ -156,6 +156,8 @@ struct EstimatorReport {
     reference_passes: u32,
     rows: Vec<Row>,
     details: Vec<Detail>,
+    /// Each row's CPU-seconds to RMSE 0.02 and 0.01.
+    time_to_rmse: Vec<TimeTo>,
 }
 
 /// Runs the comparison.
@@ -187,12 +189,13 @@ pub(crate) fn run(
         scene: scene_path.display().to_string(),
         resolution: params.camera.resolution,
         reference_passes: passes,
+        time_to_rmse: time_to_rmse(&rows, &details),
         rows,
         details,
     };
     print_rows(&report.rows);
     print_layers(&report.details);
-    print_time_to_error(&report.rows, &report.details);
+    print_time_to_error(&report.time_to_rmse);
     if let Some(path) = &args.json {
         volphot::write_atomic(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
@@ -355,33 +358,74 @@ fn print_layers(details: &[Detail]) {
     }
 }
 
+/// The CPU-seconds one row needs for an RMSE, as the JSON records it (`None`: not reached).
+#[derive(Debug, Serialize)]
+struct TimeTo {
+    setting: String,
+    target: f64,
+    cpu_s: Option<f64>,
+    /// The iteration that first reached it (iterating rows).
+    iteration: Option<usize>,
+    /// `cpu_s` over the path tracer's.
+    times_path: Option<f64>,
+}
+
+/// The RMSEs the time is reported for.
+const TARGETS: [f64; 2] = [0.02, 0.01];
+
 /// CPU-seconds each row needs for RMSE 0.02 and 0.01: the path tracer's extrapolated from
 /// its efficiency (unbiased: MSE ∝ 1/time), the photon estimators' where measured (the
 /// first iteration at the target, for iterating rows; their error has a bias floor, so
 /// more time does not lower it by a known law).
-fn print_time_to_error(rows: &[Row], details: &[Detail]) {
+fn time_to_rmse(rows: &[Row], details: &[Detail]) -> Vec<TimeTo> {
     let best_path = rows
         .iter()
         .filter(|r| r.renderer == "volphot path")
         .map(|r| r.efficiency)
         .fold(f64::INFINITY, f64::min);
-    println!("CPU-seconds to reach RMSE 0.02 / 0.01:");
+    let mut out = Vec::new();
+    for target in TARGETS {
+        let path_cpu = best_path / (target * target);
+        out.push(TimeTo {
+            setting: "path tracer".into(),
+            target,
+            cpu_s: path_cpu.is_finite().then_some(path_cpu),
+            iteration: None,
+            times_path: Some(1.0),
+        });
+        let photon_rows = rows.iter().filter(|r| r.renderer == "volphot photon");
+        for (r, d) in photon_rows.zip(details) {
+            let reached = time_to(r, d, target);
+            out.push(TimeTo {
+                setting: r.setting.clone(),
+                target,
+                cpu_s: reached.map(|(cpu, _)| cpu),
+                iteration: reached.and_then(|(_, i)| i),
+                times_path: reached
+                    .map(|(cpu, _)| cpu / path_cpu)
+                    .filter(|x| x.is_finite()),
+            });
+        }
+    }
+    out
+}
+
+fn print_time_to_error(times: &[TimeTo]) {
     println!(
-        "  path tracer (extrapolated from its best RMSE²·CPU-s): {:.1} / {:.1}",
-        best_path / 0.02f64.powi(2),
-        best_path / 0.01f64.powi(2)
+        "CPU-seconds to reach RMSE 0.02 / 0.01 (the path tracer's extrapolated from its best RMSE²·CPU-s):"
     );
-    let photon_rows = rows.iter().filter(|r| r.renderer == "volphot photon");
-    for (r, d) in photon_rows.zip(details) {
-        let reach = |target: f64| match time_to(r, d, target) {
-            Some((cpu, iteration)) => format!(
-                "{cpu:.1}{} (×{:.2} the path tracer)",
-                iteration.map_or(String::new(), |i| format!(" at it. {i}")),
-                cpu * target * target / best_path
-            ),
-            None => "not reached".into(),
-        };
-        println!("  {:<46} {} / {}", r.setting, reach(0.02), reach(0.01));
+    let reach = |t: &TimeTo| match t.cpu_s {
+        Some(cpu) => format!(
+            "{cpu:.1}{} (×{:.2} the path tracer)",
+            t.iteration
+                .map_or(String::new(), |i| format!(" at it. {i}")),
+            t.times_path.unwrap_or(f64::NAN)
+        ),
+        None => "not reached".into(),
+    };
+    let at = |target: f64| times.iter().filter(move |t| t.target == target);
+    for (a, b) in at(TARGETS[0]).zip(at(TARGETS[1])) {
+        println!("  {:<46} {} / {}", a.setting, reach(a), reach(b));
     }
 }
 

@@ -90,7 +90,8 @@ pub(crate) struct BenchOptions {
     pub(crate) peer_dir: Option<PathBuf>,
     /// Where the measurements are written as JSON.
     pub(crate) json: Option<PathBuf>,
-    /// σt(d_min) values of the tracker comparison.
+    /// σt(d_min) values of the tracker comparison, or the one σt(d_min) set on the scene of
+    /// the other modes (the scene's own when empty).
     pub(crate) sigma_t: Vec<f32>,
     /// Passes of each measured render of the tracker comparison.
     pub(crate) passes: u32,
@@ -192,6 +193,26 @@ struct BenchReport {
     efficiency: Option<Efficiency>,
 }
 
+/// Sets the one `--sigma-t` given on the scene (which must map σ as the thesis does).
+fn set_sigma_t(params: &mut volphot::SceneParams, sigma_t: &[f32]) -> Result<()> {
+    match sigma_t {
+        [] => Ok(()),
+        [t] => {
+            anyhow::ensure!(
+                params.sigma.mapping == volphot::MappingKind::Thesis,
+                "--sigma-t {t} sets σt(d_min), which needs [sigma] mapping = \"thesis\", not {:?}",
+                params.sigma.mapping
+            );
+            params.sigma.t = Some(*t);
+            volphot::validate_params(params)?;
+            Ok(())
+        }
+        many => anyhow::bail!(
+            "--sigma-t {many:?}: expected one value here (several are compared only with --reference)"
+        ),
+    }
+}
+
 /// The headline scene: the foot preset, or the foot phantom at 256² with `--quick`.
 fn headline(args: &BenchOptions) -> PathBuf {
     if let Some(s) = &args.scene {
@@ -272,6 +293,8 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     if let Some(resolution) = args.resolution {
         params.camera.resolution = resolution;
     }
+    set_sigma_t(&mut params, &args.sigma_t)
+        .with_context(|| format!("benchmark scene {}", scene_path.display()))?;
     match args.mode {
         BenchMode::Peer => return peer::run(args, &scene_path, &params),
         BenchMode::Estimators => return estimators::run(args, &scene_path, &params),

@@ -72,8 +72,15 @@ struct TrackerResult {
     pilot_cpu_s: f64,
     cpu_per_pass_s: f64,
     rmse: f64,
-    /// `[ε, CPU-seconds]` for each target RMSE ε.
-    cpu_to_rmse: Vec<[f64; 2]>,
+    /// The CPU-seconds to each target RMSE.
+    cpu_to_rmse: Vec<CpuTo>,
+}
+
+/// The CPU-seconds to an RMSE.
+#[derive(Debug, Serialize)]
+struct CpuTo {
+    target: f64,
+    cpu_s: f64,
 }
 
 /// One render: its seed, CPU time split into the first pass and the rest, and its error.
@@ -212,7 +219,7 @@ fn measure_case(
             .collect::<Result<Vec<_>>>()?;
         trackers.push(summarise(tracker, args.passes, runs));
     }
-    let at = |t: &TrackerResult| t.cpu_to_rmse.last().map_or(f64::NAN, |r| r[1]);
+    let at = |t: &TrackerResult| t.cpu_to_rmse.last().map_or(f64::NAN, |r| r.cpu_s);
     Ok(Case {
         scene: scene_path.display().to_string(),
         sigma_t,
@@ -309,7 +316,10 @@ fn summarise(tracker: Tracker, passes: u32, seeds: Vec<SeedRun>) -> TrackerResul
     let mse = mean(&|s| s.mse).max(0.0);
     let cpu_to_rmse = TARGETS
         .iter()
-        .map(|&e| [e, pilot + per_pass * f64::from(passes) * mse / (e * e)])
+        .map(|&e| CpuTo {
+            target: e,
+            cpu_s: pilot + per_pass * f64::from(passes) * mse / (e * e),
+        })
         .collect();
     TrackerResult {
         tracker,
@@ -349,8 +359,8 @@ fn print_case(case: &Case) {
             t.pilot_cpu_s,
             t.cpu_per_pass_s,
             t.rmse,
-            t.cpu_to_rmse[0][1],
-            t.cpu_to_rmse[1][1]
+            t.cpu_to_rmse[0].cpu_s,
+            t.cpu_to_rmse[1].cpu_s
         );
     }
     println!(
@@ -362,7 +372,7 @@ fn print_case(case: &Case) {
 fn print_summary(cases: &[Case]) {
     println!("CPU time to RMSE 0.01, delta → weighted:");
     for c in cases {
-        let at = |i: usize| c.trackers[i].cpu_to_rmse[1][1];
+        let at = |i: usize| c.trackers[i].cpu_to_rmse[1].cpu_s;
         println!(
             "  {:<40} σt {:>4}: {:>8.1} s → {:>8.1} s ({:.2}×)",
             c.scene,

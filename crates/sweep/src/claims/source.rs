@@ -138,15 +138,21 @@ fn table_values(table: &Table, call: &Call) -> Result<Vec<f64>> {
     Ok(values)
 }
 
-/// Follows the dotted path; the first array on the way is filtered by the call's filters
-/// (each element an object whose fields, dotted, the filters name).
+/// Follows the dotted path; every array on the way is filtered by the filters its elements
+/// carry (each element an object whose fields, dotted, the filters name): `cases.trackers.x
+/// | scene=foot, tracker=delta` picks the foot's case and, inside it, delta's entry. Every
+/// filter must name a field of the elements of some array on the way.
 fn json_values(root: &Value, call: &Call) -> Result<Vec<f64>> {
     let segments: Vec<&str> = call.column.split('.').collect();
     let mut values = Vec::new();
-    let mut filtered = false;
-    walk(root, &segments, call, &mut filtered, &mut values)?;
-    if !filtered && !call.filters.is_empty() {
-        bail!("filters given, but `{}` crosses no array", call.column);
+    let mut used = vec![false; call.filters.len()];
+    walk(root, &segments, call, &mut used, &mut values)?;
+    if let Some(k) = used.iter().position(|u| !u) {
+        bail!(
+            "filter `{}`: no array on the way to `{}` has elements with that field",
+            call.filters[k].key,
+            call.column
+        );
     }
     Ok(values)
 }
@@ -155,16 +161,26 @@ fn walk(
     v: &Value,
     path: &[&str],
     call: &Call,
-    filtered: &mut bool,
+    used: &mut [bool],
     out: &mut Vec<f64>,
 ) -> Result<()> {
     if let Value::Array(items) = v {
-        let first = !*filtered;
-        *filtered = true;
+        // The filters this array's elements carry (all of them carry the field).
+        let here: Vec<Filter> = call
+            .filters
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| {
+                !items.is_empty() && items.iter().all(|i| json_field(i, &f.key).is_some())
+            })
+            .map(|(k, f)| {
+                used[k] = true;
+                f.clone()
+            })
+            .collect();
         for item in items {
-            let keep = !first || passes(&call.filters, |k| json_field(item, k))?;
-            if keep {
-                walk(item, path, call, filtered, out)?;
+            if passes(&here, |k| json_field(item, k))? {
+                walk(item, path, call, used, out)?;
             }
         }
         return Ok(());
@@ -182,7 +198,7 @@ fn walk(
     let next = v
         .get(head)
         .ok_or_else(|| anyhow!("no field `{head}` on the way to `{}`", call.column))?;
-    walk(next, rest, call, filtered, out)
+    walk(next, rest, call, used, out)
 }
 
 /// A dotted field of a JSON object as text (for filters).
@@ -261,5 +277,29 @@ mod tests {
             .values(dir.path(), &call("value(b.json: machine.cores)"))
             .unwrap();
         assert_eq!(v, vec![2.0]);
+    }
+
+    #[test]
+    fn json_filters_apply_at_the_array_whose_elements_carry_them() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("r.json"),
+            r#"{"cases": [
+                {"scene": "foot", "trackers": [{"tracker": "delta", "cpu": 8.0}, {"tracker": "weighted", "cpu": 5.0}]},
+                {"scene": "head", "trackers": [{"tracker": "delta", "cpu": 3.0}, {"tracker": "weighted", "cpu": 2.0}]}]}"#,
+        )
+        .unwrap();
+        let mut sources = Sources::default();
+        let mut values = |q: &str| sources.values(dir.path(), &call(q));
+        assert_eq!(
+            values("value(r.json: cases.trackers.cpu | scene=head, tracker=delta)").unwrap(),
+            vec![3.0]
+        );
+        assert_eq!(
+            values("sum(r.json: cases.trackers.cpu | tracker=weighted)").unwrap(),
+            vec![5.0, 2.0]
+        );
+        let e = values("value(r.json: cases.trackers.cpu | colour=red)").unwrap_err();
+        assert!(format!("{e:#}").contains("filter `colour`"), "{e:#}");
     }
 }

@@ -1,0 +1,244 @@
+//! The committed reports as a reader of a fresh clone meets them: the files git tracks under
+//! `reports/` (nothing rendered, no `cells/`) are copied to a folder of their own, and
+//! `reports/index.html` is opened there in Chromium and in Firefox. Every image on the index
+//! decodes, every relative link names a file of the copy, nothing reaches the console as an
+//! error; every study's `report.html` the index links opens with its images decoded and,
+//! where it has an explorer, the explorer paints its first cell without an error.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde_json::Value;
+use volphot_tests::skip;
+
+use super::firefox::{firefox, run_probe};
+use super::{chromium, kept_dir, launch, watch_console};
+
+/// The repository's root (the parent of the `tests` crate).
+fn repository() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+/// Copies what git tracks under `reports/` into `dest/reports/`: what a clone holds.
+/// `None` when git cannot list them (not a checkout).
+fn clone_of_reports(dest: &Path) -> Option<PathBuf> {
+    let out = Command::new("git")
+        .args(["ls-files", "-z", "reports"])
+        .current_dir(repository())
+        .output()
+        .ok()
+        .filter(|o| o.status.success())?;
+    let files: Vec<&[u8]> = out
+        .stdout
+        .split(|b| *b == 0)
+        .filter(|f| !f.is_empty())
+        .collect();
+    if files.is_empty() {
+        return None;
+    }
+    for f in files {
+        let rel = Path::new(std::str::from_utf8(f).unwrap());
+        let to = dest.join(rel);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(repository().join(rel), &to).unwrap();
+    }
+    Some(dest.join("reports"))
+}
+
+/// What the page holds: images (decoded or not), relative links, whether an explorer is on
+/// it and, once it painted, its errors.
+const CHECK: &str = r#"(async () => {
+  const t0 = Date.now();
+  const images = Array.from(document.images);
+  images.forEach((i) => { i.loading = 'eager'; });
+  const settled = () => images.every((i) => i.complete);
+  while (!settled() && Date.now() - t0 < 20000) await new Promise((r) => setTimeout(r, 50));
+  const hasExplorer = !!document.getElementById('explorer-manifest');
+  if (hasExplorer) {
+    while (!(window.explorer && window.explorer.renders > 0) && Date.now() - t0 < 30000)
+      await new Promise((r) => setTimeout(r, 50));
+  }
+  return JSON.stringify({
+    images: images.length,
+    broken: images.filter((i) => !(i.naturalWidth > 0)).map((i) => i.getAttribute('src')),
+    links: Array.from(document.querySelectorAll('a[href]')).map((a) => a.getAttribute('href'))
+      .filter((h) => !/^(#|[a-z]+:)/.test(h)),
+    explorer: hasExplorer,
+    renders: hasExplorer && window.explorer ? window.explorer.renders : 0,
+    explorerErrors: hasExplorer && window.explorer ? window.explorer.errors : [],
+  });
+})()"#;
+
+/// The page's check, run in Chromium.
+fn check_in_chromium(tab: &headless_chrome::Tab, page: &Path) -> Value {
+    let url = format!("file://{}", page.display());
+    tab.navigate_to(&url)
+        .unwrap()
+        .wait_until_navigated()
+        .unwrap();
+    let result = tab.evaluate(CHECK, true).unwrap();
+    let text = result.value.and_then(|v| v.as_str().map(str::to_string));
+    serde_json::from_str(&text.expect("the check returns a JSON string")).unwrap()
+}
+
+/// Every relative link of `page` names a file (fragments and queries dropped).
+fn assert_links_resolve(page: &Path, check: &Value) {
+    for link in check["links"].as_array().unwrap() {
+        let link = link.as_str().unwrap();
+        let path = link.split(['#', '?']).next().unwrap();
+        let target = page.parent().unwrap().join(path);
+        assert!(
+            target.exists(),
+            "{}: the link `{link}` names no file of a clone",
+            page.display()
+        );
+    }
+}
+
+/// The studies' `report.html` pages the index links to.
+fn linked_reports(index: &Path, check: &Value) -> Vec<PathBuf> {
+    let mut pages: Vec<PathBuf> = check["links"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|l| l.as_str())
+        .filter(|l| l.ends_with("/report.html"))
+        .map(|l| index.parent().unwrap().join(l))
+        .collect();
+    pages.sort();
+    pages.dedup();
+    pages
+}
+
+#[test]
+fn committed_reports_open_from_a_clone_in_chromium() {
+    let Some(chrome) = chromium() else {
+        skip(
+            "committed_reports_open_from_a_clone_in_chromium",
+            "no Chromium: install Debian's `chromium` (.ci/run does) or set $CHROMIUM",
+        );
+        return;
+    };
+    let dir = kept_dir("browser-committed");
+    let Some(reports) = clone_of_reports(&dir) else {
+        skip(
+            "committed_reports_open_from_a_clone_in_chromium",
+            "not a git checkout: `git ls-files reports` lists nothing",
+        );
+        return;
+    };
+    let index = reports.join("index.html");
+    assert!(index.is_file(), "a clone has reports/index.html");
+    let browser = launch(chrome);
+    let tab = browser.new_tab().unwrap();
+    let console = watch_console(&tab);
+    let check = check_in_chromium(&tab, &index);
+    assert!(check["images"].as_u64().unwrap() >= 10, "{check}");
+    assert_eq!(check["broken"], serde_json::json!([]), "index: {check}");
+    assert_links_resolve(&index, &check);
+    let studies = linked_reports(&index, &check);
+    assert!(
+        studies.len() >= 12,
+        "{} studies with report.html",
+        studies.len()
+    );
+    let mut with_explorer = 0;
+    for page in &studies {
+        let check = check_in_chromium(&tab, page);
+        assert_eq!(
+            check["broken"],
+            serde_json::json!([]),
+            "{}: {check}",
+            page.display()
+        );
+        assert_links_resolve(page, &check);
+        if check["explorer"] == true {
+            with_explorer += 1;
+            assert!(
+                check["renders"].as_u64().unwrap() > 0,
+                "{}: {check}",
+                page.display()
+            );
+            assert_eq!(
+                check["explorerErrors"],
+                serde_json::json!([]),
+                "{}",
+                page.display()
+            );
+        }
+    }
+    eprintln!(
+        "{} studies opened from a clone, {with_explorer} with an explorer",
+        studies.len()
+    );
+    assert_eq!(
+        with_explorer,
+        studies.len(),
+        "every report.html has its explorer"
+    );
+    let errors = console.lock().unwrap().clone();
+    assert!(errors.is_empty(), "console: {errors:?}");
+}
+
+/// The probe for Firefox: the same check, printed through `dump()`.
+fn firefox_probe() -> String {
+    format!(
+        "<script>\nwindow.addEventListener('load', () => {{ const errors = []; window.addEventListener('error', (e) => errors.push(e.message)); {CHECK}.then((r) => {{ const o = JSON.parse(r); o.errors = errors; dump('RESULT ' + JSON.stringify(o) + '\\n'); }}).catch((e) => dump('RESULT ' + JSON.stringify({{ errors: ['probe: ' + e] }}) + '\\n')); }});\n</script>"
+    )
+}
+
+#[test]
+fn committed_index_and_a_study_open_from_a_clone_in_firefox() {
+    let Some(firefox) = firefox() else {
+        skip(
+            "committed_index_and_a_study_open_from_a_clone_in_firefox",
+            "no Firefox: install Debian's `firefox-esr` (.ci/run does) or set $FIREFOX",
+        );
+        return;
+    };
+    let dir = kept_dir("browser-committed-firefox");
+    let Some(reports) = clone_of_reports(&dir) else {
+        skip(
+            "committed_index_and_a_study_open_from_a_clone_in_firefox",
+            "not a git checkout: `git ls-files reports` lists nothing",
+        );
+        return;
+    };
+    let reports = reports.canonicalize().unwrap();
+    let probed = |page: &Path| {
+        let html = std::fs::read_to_string(page).unwrap();
+        let copy = page.with_file_name("probe-firefox.html");
+        std::fs::write(
+            &copy,
+            html.replace("</body>", &format!("{}</body>", firefox_probe())),
+        )
+        .unwrap();
+        let r = run_probe(&firefox, &dir, &copy);
+        assert_eq!(
+            r["errors"],
+            serde_json::json!([]),
+            "{}: {r}",
+            page.display()
+        );
+        assert_eq!(
+            r["broken"],
+            serde_json::json!([]),
+            "{}: {r}",
+            page.display()
+        );
+        assert_links_resolve(page, &r);
+        r
+    };
+    let index = probed(&reports.join("index.html"));
+    let study = linked_reports(&reports.join("index.html"), &index)
+        .into_iter()
+        .find(|p| p.parent().unwrap().ends_with("single_vs_multiple"))
+        .expect("the index links single_vs_multiple's report.html");
+    let r = probed(&study);
+    assert_eq!(r["explorer"], true, "{r}");
+    assert!(r["renders"].as_u64().unwrap() > 0, "{r}");
+    assert_eq!(r["explorerErrors"], serde_json::json!([]), "{r}");
+}
