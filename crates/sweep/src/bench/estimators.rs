@@ -139,6 +139,8 @@ const CONFIGS: [Config; 11] = {
 /// seeds).
 #[derive(Debug, Serialize)]
 struct Detail {
+    /// The configuration's name (`setting` without its photon count).
+    name: &'static str,
     setting: String,
     single_rmse: f64,
     multiple_rmse: f64,
@@ -233,7 +235,7 @@ fn estimator_rows(
             &references[0],
             &images,
         ));
-        details.push(detail(setting, &runs, references));
+        details.push(detail(c.name, setting, &runs, references));
     }
     Ok((rows, details))
 }
@@ -270,7 +272,12 @@ fn render_config(scene: &Scene, c: Config, k: u64, reference: &[glam::Vec3]) -> 
 
 /// The layers' errors (RMSE against the reference's layers, its noise removed), the
 /// multiple layer's mean against the reference's, and the error curve, over the seeds.
-fn detail(setting: String, runs: &[Run], references: &[Reference; 3]) -> Detail {
+fn detail(
+    name: &'static str,
+    setting: String,
+    runs: &[Run],
+    references: &[Reference; 3],
+) -> Detail {
     let n = runs.len() as f64;
     let rmse = |layer: Layer, reference: &Reference| {
         let mse = runs
@@ -289,6 +296,7 @@ fn detail(setting: String, runs: &[Run], references: &[Reference; 3]) -> Detail 
         .sum::<f64>()
         / n;
     Detail {
+        name,
         single_rmse: rmse(Layer::Single, &references[1]),
         multiple_rmse: rmse(Layer::Multiple, &references[2]),
         multiple_mean_ratio: multiple / references[2].mean(),
@@ -361,6 +369,8 @@ fn print_layers(details: &[Detail]) {
 /// The CPU-seconds one row needs for an RMSE, as the JSON records it (`None`: not reached).
 #[derive(Debug, Serialize)]
 struct TimeTo {
+    /// The configuration's name (`path tracer` for the path tracer).
+    name: &'static str,
     setting: String,
     target: f64,
     cpu_s: Option<f64>,
@@ -387,6 +397,7 @@ fn time_to_rmse(rows: &[Row], details: &[Detail]) -> Vec<TimeTo> {
     for target in TARGETS {
         let path_cpu = best_path / (target * target);
         out.push(TimeTo {
+            name: "path tracer",
             setting: "path tracer".into(),
             target,
             cpu_s: path_cpu.is_finite().then_some(path_cpu),
@@ -397,6 +408,7 @@ fn time_to_rmse(rows: &[Row], details: &[Detail]) -> Vec<TimeTo> {
         for (r, d) in photon_rows.zip(details) {
             let reached = time_to(r, d, target);
             out.push(TimeTo {
+                name: d.name,
                 setting: r.setting.clone(),
                 target,
                 cpu_s: reached.map(|(cpu, _)| cpu),
