@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 
 use super::chart::{Drawn, Panel, Plot, Point, Series, write_plot};
 use super::collect::{Collected, axis_value, distinct_values, matches, numeric, value_label};
@@ -132,6 +132,7 @@ pub(crate) fn plots(
 ) -> Result<()> {
     let dir = out.figures().join("plots");
     std::fs::create_dir_all(&dir)?;
+    let mut written = std::collections::BTreeSet::new();
     for (pi, spec) in plot_specs(plan, cells, experiment).iter().enumerate() {
         let selected: Vec<&Collected> = cells
             .iter()
@@ -162,6 +163,7 @@ pub(crate) fn plots(
                 let stem = dir.join(name);
                 let drawn = write_plot(&stem, &plot)?;
                 volphot::write_atomic(&stem.with_extension("csv"), plot_csv(&plot).as_bytes())?;
+                written.insert(stem.clone());
                 figures.plots.push(PlotFigure {
                     points: linked_points(&plot, &drawn, metric),
                     caption: plot.title,
@@ -169,6 +171,28 @@ pub(crate) fn plots(
                     size: drawn.size,
                 });
             }
+        }
+    }
+    remove_stale_plots(&dir, &written)
+}
+
+/// Removes the plots an earlier report wrote that this one did not (a plot spec changed or
+/// was dropped, a facet was split): a stale figure would sit beside the report as if it
+/// were one of its own.
+fn remove_stale_plots(
+    dir: &std::path::Path,
+    written: &std::collections::BTreeSet<std::path::PathBuf>,
+) -> Result<()> {
+    for file in std::fs::read_dir(dir)?.flatten().map(|e| e.path()) {
+        let ours = file
+            .extension()
+            .is_some_and(|e| e == "png" || e == "svg" || e == "csv");
+        let hidden = file
+            .file_name()
+            .is_some_and(|n| n.to_string_lossy().starts_with('.'));
+        if ours && !hidden && !written.contains(&file.with_extension("")) {
+            std::fs::remove_file(&file)
+                .with_context(|| format!("removing the stale plot {}", file.display()))?;
         }
     }
     Ok(())
@@ -454,4 +478,43 @@ fn linked_points(plot: &Plot, drawn: &Drawn, metric: &str) -> Vec<PlotPoint> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plots_an_earlier_report_wrote_are_removed_and_others_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        for f in [
+            "p0_rmse_vs_sigma_t.png",
+            "p0_rmse_vs_sigma_t.svg",
+            "p0_rmse_vs_sigma_t.csv",
+            "p1_rmse_vs_integrator_seed.png",
+            "p1_rmse_vs_integrator_seed.svg",
+            ".p2.png.tmp",
+            "notes.txt",
+        ] {
+            std::fs::write(d.join(f), b"x").unwrap();
+        }
+        let written = [d.join("p0_rmse_vs_sigma_t")].into_iter().collect();
+        remove_stale_plots(d, &written).unwrap();
+        let mut left: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(
+            left,
+            [
+                ".p2.png.tmp",
+                "notes.txt",
+                "p0_rmse_vs_sigma_t.csv",
+                "p0_rmse_vs_sigma_t.png",
+                "p0_rmse_vs_sigma_t.svg"
+            ]
+        );
+    }
 }
