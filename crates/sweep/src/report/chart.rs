@@ -208,6 +208,14 @@ struct Axes {
     x_ticks: Vec<f64>,
 }
 
+/// The title's font size: 21 px, smaller when a long title (every fixed axis named) would
+/// run past the image's edges (a character of this font is about 0.55 of its size wide).
+fn title_size(title: &str, width: u32) -> u32 {
+    let chars = title.chars().count().max(1) as f64;
+    let fits = (f64::from(width) - 16.0) / (0.55 * chars);
+    (fits.floor() as u32).clamp(11, 21)
+}
+
 /// Draws the plot; returns where its points landed.
 fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plot: &Plot) -> Result<Vec<Hotspot>>
 where
@@ -219,7 +227,7 @@ where
     let (rows, cols, (width, _)) = plot.layout();
     let (title, body) = root.split_vertically(TITLE_HEIGHT);
     title
-        .titled(&plot.title, ("sans-serif", 21))
+        .titled(&plot.title, ("sans-serif", title_size(&plot.title, width)))
         .map_err(&err)?;
     let legend_width = if plot.has_legend() { LEGEND_WIDTH } else { 0 };
     let (grid, legend) = body.split_horizontally(width - legend_width);
@@ -647,6 +655,17 @@ mod tests {
         assert!(
             x1 as u32 > SMALL_PANEL.0,
             "the second panel is right of the first"
+        );
+    }
+
+    #[test]
+    fn a_long_title_is_set_smaller_to_fit_the_image() {
+        assert_eq!(title_size("rmse vs σt(d_min)", 930), 21);
+        let long = "disco_excess vs σt(d_min) — scene = foot, nused = 50, α = 0.5, photons = 40000, iterations = 16, eye_rays = replayed, radius = auto, maxdist = 0.1";
+        let size = title_size(long, 930);
+        assert!(
+            size < 21 && f64::from(size) * 0.55 * long.chars().count() as f64 <= 930.0,
+            "{size}"
         );
     }
 }
