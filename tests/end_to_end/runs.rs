@@ -848,3 +848,63 @@ spp = {spp}
     let part = planned(&study("d", 48));
     assert!(part.contains("holds 0 of them and 1 in part"), "{part}");
 }
+
+/// The README's first command (`sweep experiments/quickstart.toml`, here on a copy of the
+/// tracked `experiments/` folder) writes only under `out/`: no tracked file changes and
+/// nothing lands elsewhere, so a fresh clone's `git status` stays clean (`out/` is ignored).
+#[test]
+fn the_main_job_writes_only_under_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let listed = std::process::Command::new("git")
+        .args(["ls-files", "-z", "experiments"])
+        .current_dir(workspace())
+        .output()
+        .ok()
+        .filter(|o| o.status.success() && !o.stdout.is_empty());
+    let Some(listed) = listed else {
+        skip(
+            "the_main_job_writes_only_under_out",
+            "not a git checkout: `git ls-files experiments` lists nothing",
+        );
+        return;
+    };
+    let mut before = std::collections::BTreeMap::new();
+    for f in listed.stdout.split(|b| *b == 0).filter(|f| !f.is_empty()) {
+        let rel = PathBuf::from(std::str::from_utf8(f).unwrap());
+        let to = dir.path().join(&rel);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(workspace().join(&rel), &to).unwrap();
+        before.insert(rel.clone(), std::fs::read(&to).unwrap());
+    }
+    run_ok(
+        sweep()
+            .current_dir(dir.path())
+            .args(["experiments/quickstart.toml", "--quiet"]),
+    );
+    assert!(dir.path().join("out/quickstart/report.html").is_file());
+    for (rel, bytes) in &before {
+        assert_eq!(
+            &std::fs::read(dir.path().join(rel)).unwrap(),
+            bytes,
+            "{} changed",
+            rel.display()
+        );
+    }
+    let mut others = Vec::new();
+    let mut stack = vec![dir.path().to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            let rel = p.strip_prefix(dir.path()).unwrap().to_path_buf();
+            if rel.starts_with("out") {
+                continue;
+            }
+            if p.is_dir() {
+                stack.push(p);
+            } else if !before.contains_key(&rel) {
+                others.push(rel);
+            }
+        }
+    }
+    assert!(others.is_empty(), "written outside out/: {others:?}");
+}
