@@ -11,6 +11,7 @@ use kiddo::SquaredEuclidean;
 use rayon::prelude::*;
 
 use super::map::{Gathered, PhotonMap};
+use super::slab_hit;
 use crate::math::Ray;
 use crate::medium::{Medium, Phase};
 use crate::scene::RadiusRule;
@@ -343,17 +344,6 @@ fn build(spheres: &mut [Sphere], start: usize, end: usize, nodes: &mut Vec<Node>
     build(spheres, mid, end, nodes);
     nodes[index].start = second;
     nodes[index].count = 0;
-}
-
-/// Whether the ray meets the box within `[t_min, t_max]`.
-#[inline]
-fn slab_hit(min: Vec3, max: Vec3, origin: Vec3, inv_dir: Vec3, t_min: f32, t_max: f32) -> bool {
-    let t1 = (min - origin) * inv_dir;
-    let t2 = (max - origin) * inv_dir;
-    let near = t1.min(t2).max_element().max(t_min);
-    let far = t1.max(t2).min_element().min(t_max);
-    // NaN (a zero direction component on the slab's plane) counts as a hit.
-    near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)
 }
 
 #[cfg(test)]

@@ -39,8 +39,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::PhotonStats;
 use super::trace::{Flight, PathCounters, PathRecord, TraceSettings, trace_chunks, walk_path};
+use super::{PhotonStats, slab_hit};
 use crate::control::Control;
 use crate::error::Result;
 use crate::math::{Aabb, Domain, Ray, Rng};
@@ -423,17 +423,6 @@ fn build(items: &mut [(u32, Aabb)], start: usize, end: usize, nodes: &mut Vec<No
     build(items, mid, end, nodes);
     nodes[index].start = second;
     nodes[index].count = 0;
-}
-
-/// Whether the ray meets the box within `[t_min, t_max]`.
-#[inline]
-fn slab_hit(min: Vec3, max: Vec3, origin: Vec3, inv_dir: Vec3, t_min: f32, t_max: f32) -> bool {
-    let t1 = (min - origin) * inv_dir;
-    let t2 = (max - origin) * inv_dir;
-    let near = t1.min(t2).max_element().max(t_min);
-    let far = t1.max(t2).min_element().min(t_max);
-    // NaN (a zero direction component on the slab's plane) counts as a hit.
-    near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)
 }
 
 #[cfg(test)]
