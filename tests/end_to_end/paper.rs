@@ -7,10 +7,11 @@ use std::path::Path;
 use volphot_tests::{sweep, workspace};
 
 /// The documents whose cited numbers CI checks.
-const DOCUMENTS: [&str; 3] = [
+const DOCUMENTS: [&str; 4] = [
     "reports/REPRODUCTION.md",
     "README.md",
     "docs/performance.md",
+    "docs/peer.md",
 ];
 
 /// `N claims` from `sweep claims`'s summary line of `document`.
@@ -36,6 +37,7 @@ fn the_documents_cite_the_committed_data() {
     assert!(claims_of(&stdout, DOCUMENTS[0]) >= 300, "{stdout}");
     assert!(claims_of(&stdout, DOCUMENTS[1]) >= 20, "{stdout}");
     assert!(claims_of(&stdout, DOCUMENTS[2]) >= 20, "{stdout}");
+    assert!(claims_of(&stdout, DOCUMENTS[3]) >= 6, "{stdout}");
 }
 
 /// A copy of the paper with its first cited number changed fails, naming that line, the
