@@ -11,6 +11,33 @@ pub fn workspace() -> PathBuf {
         .to_path_buf()
 }
 
+/// Copies what git tracks under `folder` of the workspace into `dest` (same relative
+/// paths): what a fresh clone holds there. Returns the copied paths, or `None` when git
+/// lists nothing (not a checkout, or git missing).
+pub fn copy_tracked(folder: &str, dest: &Path) -> Option<Vec<PathBuf>> {
+    let out = Command::new("git")
+        .args(["ls-files", "-z", folder])
+        .current_dir(workspace())
+        .output()
+        .ok()
+        .filter(|o| o.status.success())?;
+    let files: Vec<PathBuf> = out
+        .stdout
+        .split(|b| *b == 0)
+        .filter(|f| !f.is_empty())
+        .map(|f| PathBuf::from(std::str::from_utf8(f).expect("a UTF-8 path")))
+        .collect();
+    if files.is_empty() {
+        return None;
+    }
+    for rel in &files {
+        let to = dest.join(rel);
+        std::fs::create_dir_all(to.parent().expect("a file has a folder")).unwrap();
+        std::fs::copy(workspace().join(rel), &to).unwrap();
+    }
+    Some(files)
+}
+
 /// The `sweep` binary built by this `cargo test` run (same profile as the tests), or
 /// `$VOLPHOT_SWEEP_BIN`.
 pub fn sweep_bin() -> PathBuf {

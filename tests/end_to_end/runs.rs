@@ -3,7 +3,9 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use volphot_tests::{data_dir, read_csv, run_ok, skip, sweep, workspace, write_experiment};
+use volphot_tests::{
+    copy_tracked, data_dir, read_csv, run_ok, skip, sweep, workspace, write_experiment,
+};
 
 /// A small phantom experiment: `nused` × σt(d_min) on the engine phantom.
 fn phantom_experiment(dir: &Path, resolution: u32, extra_axis: &str) -> PathBuf {
@@ -855,27 +857,20 @@ spp = {spp}
 #[test]
 fn the_main_job_writes_only_under_out() {
     let dir = tempfile::tempdir().unwrap();
-    let listed = std::process::Command::new("git")
-        .args(["ls-files", "-z", "experiments"])
-        .current_dir(workspace())
-        .output()
-        .ok()
-        .filter(|o| o.status.success() && !o.stdout.is_empty());
-    let Some(listed) = listed else {
+    let Some(tracked) = copy_tracked("experiments", dir.path()) else {
         skip(
             "the_main_job_writes_only_under_out",
             "not a git checkout: `git ls-files experiments` lists nothing",
         );
         return;
     };
-    let mut before = std::collections::BTreeMap::new();
-    for f in listed.stdout.split(|b| *b == 0).filter(|f| !f.is_empty()) {
-        let rel = PathBuf::from(std::str::from_utf8(f).unwrap());
-        let to = dir.path().join(&rel);
-        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
-        std::fs::copy(workspace().join(&rel), &to).unwrap();
-        before.insert(rel.clone(), std::fs::read(&to).unwrap());
-    }
+    let before: std::collections::BTreeMap<PathBuf, Vec<u8>> = tracked
+        .into_iter()
+        .map(|rel| {
+            let bytes = std::fs::read(dir.path().join(&rel)).unwrap();
+            (rel, bytes)
+        })
+        .collect();
     run_ok(
         sweep()
             .current_dir(dir.path())

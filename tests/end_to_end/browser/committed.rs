@@ -6,46 +6,17 @@
 //! where it has an explorer, the explorer paints its first cell without an error.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use serde_json::Value;
-use volphot_tests::skip;
+use volphot_tests::{copy_tracked, skip};
 
 use super::firefox::{firefox, run_probe};
 use super::{chromium, kept_dir, launch, watch_console};
 
-/// The repository's root (the parent of the `tests` crate).
-fn repository() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .to_path_buf()
-}
-
-/// Copies what git tracks under `reports/` into `dest/reports/`: what a clone holds.
-/// `None` when git cannot list them (not a checkout).
+/// What a clone holds under `reports/`, copied into `dest/reports/`; `None` when git cannot
+/// list it (not a checkout).
 fn clone_of_reports(dest: &Path) -> Option<PathBuf> {
-    let out = Command::new("git")
-        .args(["ls-files", "-z", "reports"])
-        .current_dir(repository())
-        .output()
-        .ok()
-        .filter(|o| o.status.success())?;
-    let files: Vec<&[u8]> = out
-        .stdout
-        .split(|b| *b == 0)
-        .filter(|f| !f.is_empty())
-        .collect();
-    if files.is_empty() {
-        return None;
-    }
-    for f in files {
-        let rel = Path::new(std::str::from_utf8(f).unwrap());
-        let to = dest.join(rel);
-        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
-        std::fs::copy(repository().join(rel), &to).unwrap();
-    }
-    Some(dest.join("reports"))
+    copy_tracked("reports", dest).map(|_| dest.join("reports"))
 }
 
 /// What the page holds: images (decoded or not), relative links, whether an explorer is on

@@ -198,12 +198,7 @@ fn set_sigma_t(params: &mut volphot::SceneParams, sigma_t: &[f32]) -> Result<()>
     match sigma_t {
         [] => Ok(()),
         [t] => {
-            anyhow::ensure!(
-                params.sigma.mapping == volphot::MappingKind::Thesis,
-                "--sigma-t {t} sets σt(d_min), which needs [sigma] mapping = \"thesis\", not {:?}",
-                params.sigma.mapping
-            );
-            params.sigma.t = Some(*t);
+            with_sigma_t(params, *t)?;
             volphot::validate_params(params)?;
             Ok(())
         }
@@ -211,6 +206,18 @@ fn set_sigma_t(params: &mut volphot::SceneParams, sigma_t: &[f32]) -> Result<()>
             "--sigma-t {many:?}: expected one value here (several are compared only with --reference)"
         ),
     }
+}
+
+/// Sets σt(d_min) = `t` on a scene whose σ mapping is the thesis's (the only one where
+/// σt(d_min) is a setting).
+fn with_sigma_t(params: &mut volphot::SceneParams, t: f32) -> Result<()> {
+    anyhow::ensure!(
+        params.sigma.mapping == volphot::MappingKind::Thesis,
+        "--sigma-t {t} sets σt(d_min), which needs [sigma] mapping = \"thesis\", not {:?}",
+        params.sigma.mapping
+    );
+    params.sigma.t = Some(t);
+    Ok(())
 }
 
 /// The headline scene: the foot preset, or the foot phantom at 256² with `--quick`.

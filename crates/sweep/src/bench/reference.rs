@@ -18,8 +18,8 @@ use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use serde::Serialize;
 use volphot::{
-    Control, IntegratorParams, MappingKind, Method, ReferenceAccumulator, Scene, SceneParams,
-    SearchPath, Tracker, process_cpu_seconds,
+    Control, IntegratorParams, Method, ReferenceAccumulator, Scene, SceneParams, SearchPath,
+    Tracker, process_cpu_seconds,
 };
 
 use super::{BenchOptions, Machine};
@@ -159,13 +159,7 @@ fn scenes(args: &BenchOptions) -> Vec<PathBuf> {
 /// rendering every layer with the path tracer.
 fn case_params(params: &SceneParams, t: f32, args: &BenchOptions) -> Result<SceneParams> {
     let mut p = params.clone();
-    if p.sigma.mapping != MappingKind::Thesis {
-        bail!(
-            "--sigma-t sets σt(d_min), which needs [sigma] mapping = \"thesis\", not {:?}",
-            p.sigma.mapping
-        );
-    }
-    p.sigma.t = Some(t);
+    super::with_sigma_t(&mut p, t)?;
     if args.quick {
         p.camera.resolution = [128, 128];
     }
@@ -275,7 +269,7 @@ fn pooled_reference(
     let variance = acc
         .total_variance()
         .context("the reference's total variance")?;
-    let rmse = (variance.iter().map(|v| mean3(*v)).sum::<f64>() / variance.len() as f64).sqrt();
+    let rmse = volphot::mean_rgb(&variance).sqrt();
     Ok(Reference {
         image: acc.film().total(),
         info: ReferenceInfo {
@@ -330,10 +324,6 @@ fn summarise(tracker: Tracker, passes: u32, seeds: Vec<SeedRun>) -> TrackerResul
         cpu_to_rmse,
         seeds,
     }
-}
-
-fn mean3(v: Vec3) -> f64 {
-    (f64::from(v.x) + f64::from(v.y) + f64::from(v.z)) / 3.0
 }
 
 fn print_case(case: &Case) {

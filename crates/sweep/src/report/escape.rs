@@ -3,6 +3,15 @@
 //! such as `"><img src=x onerror=alert(1)>` became live HTML in the Markdown (issue #45,
 //! case 8) and a `|` split a table row. Every such string goes through one of these.
 
+/// Text for HTML (an element's content or a quoted attribute): `&`, `<`, `>` and `"` become
+/// entities. What `report.html`, the index and the paper page write around user strings.
+pub(crate) fn html(t: &str) -> String {
+    t.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
 /// Text shown as written: HTML's special characters become entities, and Markdown's inline
 /// syntax is escaped where it could take effect — `|` (a table cell), `` ` ``, `\\`, `*`,
 /// a `_` at a word boundary, `]` before `(`, `[` or `:` (a link), doubled `~` — so units

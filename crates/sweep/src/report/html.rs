@@ -11,6 +11,7 @@ use anyhow::{Context, Result};
 use base64::Engine as _;
 use pulldown_cmark::{CowStr, Event, HeadingLevel, Options, Parser, Tag, TagEnd};
 
+use super::escape;
 use super::explorer::Explorer;
 use super::{Figures, PlotFigure};
 
@@ -20,13 +21,6 @@ const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em aut
 table{border-collapse:collapse;font-size:0.85em;margin:1em 0}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}\
 th{background:#eee}img{max-width:100%}figure{margin:1em 0 0 0}figure+p{font-style:italic;color:#555;margin-top:0.2em}\
 .table-wrap{max-width:100%;overflow-x:auto}code{background:#f3f3f3;padding:0 3px}";
-
-fn escape(t: &str) -> String {
-    t.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
 
 /// The clickable points over a plot image: an SVG with the plot's geometry, one circle per
 /// drawn point carrying the plan indices of its cells.
@@ -42,7 +36,7 @@ fn plot_points(plot: &PlotFigure) -> String {
             p.at.0,
             p.at.1,
             cells.join(" "),
-            escape(&p.text)
+            escape::html(&p.text)
         );
     }
     svg + "</svg>"
@@ -55,7 +49,7 @@ fn figure(root: &Path, src: &str, alt: &str, plots: &[(String, &PlotFigure)]) ->
     let data = base64::engine::general_purpose::STANDARD.encode(bytes);
     let img = format!(
         "<img alt=\"{}\" src=\"data:image/png;base64,{data}\">",
-        escape(alt)
+        escape::html(alt)
     );
     Ok(match plots.iter().find(|(path, _)| path == src) {
         Some((_, plot)) => format!(

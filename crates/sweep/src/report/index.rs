@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 
+use super::escape;
 use crate::store::{OutputDir, read_plan};
 
 /// What the index shows of one study.
@@ -26,13 +27,6 @@ struct Study {
     /// Relative path of a thumbnail (a contact sheet, else a plot), if any.
     thumbnail: Option<String>,
     has_html: bool,
-}
-
-fn escape(t: &str) -> String {
-    t.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
 }
 
 /// The first paragraph of the experiment copy's description (plain text).
@@ -126,29 +120,29 @@ fn card(s: &Study) -> String {
         let _ = write!(
             c,
             "<a href=\"{}\"><img alt=\"{}\" src=\"{}\" loading=\"lazy\"></a>",
-            escape(&target),
-            escape(&s.name),
-            escape(t)
+            escape::html(&target),
+            escape::html(&s.name),
+            escape::html(t)
         );
     }
     let _ = write!(
         c,
         "<h3><a href=\"{}\">{}{}</a></h3><p class=\"meta\"><code>{}</code> · {} quality · {} cells, {} done</p><p>{}</p><p class=\"meta\">varies: {}</p><p class=\"meta\"><a href=\"{}/report.md\">report.md</a> · <a href=\"{}/cells.csv\">cells.csv</a></p></div>",
-        escape(&target),
-        escape(&s.name),
+        escape::html(&target),
+        escape::html(&s.name),
         if s.quality == "default" {
             String::new()
         } else {
-            format!(" ({})", escape(&s.quality))
+            format!(" ({})", escape::html(&s.quality))
         },
-        escape(&s.folder),
-        escape(&s.quality),
+        escape::html(&s.folder),
+        escape::html(&s.quality),
         s.cells,
         s.done,
-        escape(&s.description),
-        escape(&s.axes.join(", ")),
-        escape(&s.folder),
-        escape(&s.folder),
+        escape::html(&s.description),
+        escape::html(&s.axes.join(", ")),
+        escape::html(&s.folder),
+        escape::html(&s.folder),
     );
     c
 }
@@ -215,7 +209,7 @@ pub(crate) fn write_index(root: &Path) -> Result<PathBuf> {
     let paper = write_paper(root)?;
     let _ = write!(
         body,
-        "<h1>volphot: the studies</h1><p>The thesis's findings, checked one by one, are in the paper: {}. Each study below opens its report with the image explorer (pick two cells, compare, zoom, read pixel values).</p>",
+        "<h1>volphot: the studies</h1><p>The thesis's findings, checked one by one, are in the paper: {}. A study whose explorer data are committed opens its report.html with the image explorer (pick two cells, compare, zoom, read pixel values); the others open their report.md until they are rendered again.</p>",
         match paper {
             Some(_) =>
                 "<a href=\"REPRODUCTION.html\">REPRODUCTION</a> (<a href=\"REPRODUCTION.md\">Markdown</a>)",
@@ -227,7 +221,7 @@ pub(crate) fn write_index(root: &Path) -> Result<PathBuf> {
         body += "<p>Benchmarks (machine, configurations, every run's times): ";
         body += &benches
             .iter()
-            .map(|b| format!("<a href=\"bench/{0}\">{0}</a>", escape(b)))
+            .map(|b| format!("<a href=\"bench/{0}\">{0}</a>", escape::html(b)))
             .collect::<Vec<_>>()
             .join(", ");
         body += "</p>";
