@@ -10,8 +10,8 @@ use glam::Vec3;
 use kiddo::SquaredEuclidean;
 use rayon::prelude::*;
 
+use super::bvh::{Bounded, Bvh};
 use super::map::{Gathered, PhotonMap};
-use super::slab_hit;
 use crate::math::Ray;
 use crate::medium::{Medium, Phase};
 use crate::scene::RadiusRule;
@@ -37,20 +37,6 @@ pub enum BeamRadius {
     },
 }
 
-/// Photons leaves hold at most this many spheres.
-const LEAF_SIZE: usize = 4;
-
-/// One node of the hierarchy: a box, and either two children or a range of spheres.
-#[derive(Debug, Clone, Copy)]
-struct Node {
-    min: Vec3,
-    max: Vec3,
-    /// Leaf: first sphere; inner: index of the second child (the first follows the node).
-    start: u32,
-    /// Leaf: sphere count; inner: 0.
-    count: u32,
-}
-
 /// A photon's sphere, as the hierarchy stores it.
 #[derive(Debug, Clone, Copy)]
 struct Sphere {
@@ -62,12 +48,25 @@ struct Sphere {
     photon: u32,
 }
 
+impl Bounded for Sphere {
+    fn bounds(&self) -> (Vec3, Vec3) {
+        let r = self.radius2.sqrt();
+        (self.center - r, self.center + r)
+    }
+    fn centre(&self) -> Vec3 {
+        self.center
+    }
+    fn index(&self) -> u32 {
+        self.photon
+    }
+}
+
 /// A photon map's photons as spheres in a bounding-volume hierarchy.
 #[derive(Debug)]
 pub struct BeamMap<'a> {
     map: &'a PhotonMap,
     spheres: Vec<Sphere>,
-    nodes: Vec<Node>,
+    bvh: Bvh,
     mean_radius: f32,
 }
 
@@ -113,15 +112,11 @@ impl<'a> BeamMap<'a> {
         } else {
             (radii.iter().map(|&r| r as f64).sum::<f64>() / radii.len() as f64) as f32
         };
-        let mut nodes = Vec::with_capacity(2 * spheres.len() / LEAF_SIZE + 1);
-        if !spheres.is_empty() {
-            let n = spheres.len();
-            build(&mut spheres, 0, n, &mut nodes);
-        }
+        let bvh = Bvh::new(&mut spheres);
         BeamMap {
             map,
             spheres,
-            nodes,
+            bvh,
             mean_radius,
         }
     }
@@ -144,24 +139,9 @@ impl<'a> BeamMap<'a> {
         mut visit: impl FnMut(Crossing),
     ) {
         let (t_min, t_max) = span;
-        if self.nodes.is_empty() || t_max <= t_min {
-            return;
-        }
         let wo = -ray.direction;
-        let inv_dir = ray.direction.recip();
-        stack.clear();
-        stack.push(0);
-        while let Some(index) = stack.pop() {
-            let node = self.nodes[index as usize];
-            if !slab_hit(node.min, node.max, ray.origin, inv_dir, t_min, t_max) {
-                continue;
-            }
-            if node.count == 0 {
-                stack.push(node.start);
-                stack.push(index + 1);
-                continue;
-            }
-            for sphere in &self.spheres[node.start as usize..(node.start + node.count) as usize] {
+        self.bvh.leaves_along(ray, span, stack, |leaf| {
+            for sphere in &self.spheres[leaf] {
                 let to_center = sphere.center - ray.origin;
                 let t_c = to_center.dot(ray.direction);
                 let d2 = (to_center - ray.direction * t_c).length_squared();
@@ -181,7 +161,7 @@ impl<'a> BeamMap<'a> {
                     density: term * sphere.inv_volume,
                 });
             }
-        }
+        });
     }
 }
 
@@ -197,28 +177,14 @@ impl BeamMap<'_> {
         stack: &mut Vec<u32>,
     ) -> Vec3 {
         let mut sum = Vec3::ZERO;
-        if self.nodes.is_empty() {
-            return sum;
-        }
-        stack.clear();
-        stack.push(0);
-        while let Some(index) = stack.pop() {
-            let node = self.nodes[index as usize];
-            if x.cmplt(node.min).any() || x.cmpgt(node.max).any() {
-                continue;
-            }
-            if node.count == 0 {
-                stack.push(node.start);
-                stack.push(index + 1);
-                continue;
-            }
-            for sphere in &self.spheres[node.start as usize..(node.start + node.count) as usize] {
+        self.bvh.leaves_holding(x, stack, |leaf| {
+            for sphere in &self.spheres[leaf] {
                 if (x - sphere.center).length_squared() < sphere.radius2 {
                     let photon = &self.map.photons()[sphere.photon as usize];
                     sum += PhotonMap::term(photon, gathered, phase, wo) * sphere.inv_volume;
                 }
             }
-        }
+        });
         sum
     }
 }
@@ -300,50 +266,6 @@ fn balanced(map: &PhotonMap, nearest: &[f32], max: f32) -> Vec<f32> {
         .zip(nearest)
         .map(|(&g, &r)| if g > 0.0 { (g * scale).min(max) } else { r })
         .collect()
-}
-
-/// Builds the subtree of `spheres[start..end]` (median split on the longest axis of the
-/// centres), appending its nodes in depth-first order.
-fn build(spheres: &mut [Sphere], start: usize, end: usize, nodes: &mut Vec<Node>) {
-    let (mut min, mut max) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    let (mut cmin, mut cmax) = (min, max);
-    for s in &spheres[start..end] {
-        let r = s.radius2.sqrt();
-        min = min.min(s.center - r);
-        max = max.max(s.center + r);
-        cmin = cmin.min(s.center);
-        cmax = cmax.max(s.center);
-    }
-    let index = nodes.len();
-    nodes.push(Node {
-        min,
-        max,
-        start: start as u32,
-        count: (end - start) as u32,
-    });
-    if end - start <= LEAF_SIZE {
-        return;
-    }
-    let extent = cmax - cmin;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z {
-        0
-    } else if extent.y >= extent.z {
-        1
-    } else {
-        2
-    };
-    let mid = (start + end) / 2;
-    // Ties broken by photon index, so the tree (and the visiting order) is canonical.
-    spheres[start..end].select_nth_unstable_by(mid - start, |a, b| {
-        a.center[axis]
-            .total_cmp(&b.center[axis])
-            .then(a.photon.cmp(&b.photon))
-    });
-    build(spheres, start, mid, nodes);
-    let second = nodes.len() as u32;
-    build(spheres, mid, end, nodes);
-    nodes[index].start = second;
-    nodes[index].count = 0;
 }
 
 #[cfg(test)]

@@ -39,8 +39,9 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::PhotonStats;
+use super::bvh::{Bounded, Bvh};
 use super::trace::{Flight, PathCounters, PathRecord, TraceSettings, trace_chunks, walk_path};
-use super::{PhotonStats, slab_hit};
 use crate::control::Control;
 use crate::error::Result;
 use crate::math::{Aabb, Domain, Ray, Rng};
@@ -219,27 +220,13 @@ impl PlaneCrossing<'_> {
     }
 }
 
-/// Leaves hold at most this many slabs.
-const LEAF_SIZE: usize = 4;
-
-/// One node of the hierarchy: a box, and either two children or a range of slabs.
-#[derive(Debug, Clone, Copy)]
-struct Node {
-    min: Vec3,
-    max: Vec3,
-    /// Leaf: first slab; inner: index of the second child (the first follows the node).
-    start: u32,
-    /// Leaf: slab count; inner: 0.
-    count: u32,
-}
-
 /// The planes of one photon set, blurred to slabs of half-width `r`, in a bounding-volume
 /// hierarchy an eye ray walks once.
 #[derive(Debug)]
 pub struct PlaneMap<'a> {
     planes: &'a [PhotonPlane],
     slabs: Vec<Slab>,
-    nodes: Vec<Node>,
+    bvh: Bvh,
     blur: f32,
 }
 
@@ -259,16 +246,12 @@ impl<'a> PlaneMap<'a> {
             .enumerate()
             .map(|(i, b)| (i as u32, b))
             .collect();
-        let mut nodes = Vec::with_capacity(2 * order.len() / LEAF_SIZE + 1);
-        if !order.is_empty() {
-            let n = order.len();
-            build(&mut order, 0, n, &mut nodes);
-        }
+        let bvh = Bvh::new(&mut order);
         slabs = order.iter().map(|(i, _)| slabs[*i as usize]).collect();
         PlaneMap {
             planes,
             slabs,
-            nodes,
+            bvh,
             blur,
         }
     }
@@ -288,28 +271,13 @@ impl<'a> PlaneMap<'a> {
         mut visit: impl FnMut(PlaneCrossing<'_>),
     ) {
         let (t_min, t_max) = span;
-        if self.nodes.is_empty() || t_max <= t_min {
-            return;
-        }
-        let inv_dir = ray.direction.recip();
-        stack.clear();
-        stack.push(0);
-        while let Some(index) = stack.pop() {
-            let node = self.nodes[index as usize];
-            if !slab_hit(node.min, node.max, ray.origin, inv_dir, t_min, t_max) {
-                continue;
-            }
-            if node.count == 0 {
-                stack.push(node.start);
-                stack.push(index + 1);
-                continue;
-            }
-            for slab in &self.slabs[node.start as usize..(node.start + node.count) as usize] {
+        self.bvh.leaves_along(ray, span, stack, |leaf| {
+            for slab in &self.slabs[leaf] {
                 if let Some(c) = self.cross(slab, ray, t_min, t_max) {
                     visit(c);
                 }
             }
-        }
+        });
     }
 
     /// The ray's stretch inside `slab` (its three coordinate ranges) within `[t_min, t_max]`.
@@ -389,40 +357,17 @@ fn slab_of(p: &PhotonPlane, index: u32, blur: f32) -> Option<(Slab, Aabb)> {
     Some((slab, Aabb::new(min, max)))
 }
 
-/// Builds the subtree of `items[start..end]` (median split on the longest axis of the box
-/// centres), appending its nodes in depth-first order.
-fn build(items: &mut [(u32, Aabb)], start: usize, end: usize, nodes: &mut Vec<Node>) {
-    let (mut min, mut max) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    let (mut cmin, mut cmax) = (min, max);
-    for (_, b) in &items[start..end] {
-        min = min.min(b.min);
-        max = max.max(b.max);
-        cmin = cmin.min(b.center());
-        cmax = cmax.max(b.center());
+/// A slab's box in the hierarchy, with the slab's index before ordering.
+impl Bounded for (u32, Aabb) {
+    fn bounds(&self) -> (Vec3, Vec3) {
+        (self.1.min, self.1.max)
     }
-    let index = nodes.len();
-    nodes.push(Node {
-        min,
-        max,
-        start: start as u32,
-        count: (end - start) as u32,
-    });
-    if end - start <= LEAF_SIZE {
-        return;
+    fn centre(&self) -> Vec3 {
+        self.1.center()
     }
-    let axis = (cmax - cmin).max_position();
-    let mid = (start + end) / 2;
-    // Ties broken by plane index, so the tree (and the visiting order) is canonical.
-    items[start..end].select_nth_unstable_by(mid - start, |a, b| {
-        a.1.center()[axis]
-            .total_cmp(&b.1.center()[axis])
-            .then(a.0.cmp(&b.0))
-    });
-    build(items, start, mid, nodes);
-    let second = nodes.len() as u32;
-    build(items, mid, end, nodes);
-    nodes[index].start = second;
-    nodes[index].count = 0;
+    fn index(&self) -> u32 {
+        self.0
+    }
 }
 
 #[cfg(test)]
