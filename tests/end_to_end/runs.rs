@@ -476,6 +476,83 @@ fn renders_outside_what_their_settings_resolve_warn() {
 }
 
 #[test]
+fn a_run_prints_each_kind_of_warning_in_full_a_few_times_and_names_the_other_cells_once() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    tiny_scene(dir, "few", 80.0, 300, 300);
+    let exp = dir.join("e.toml");
+    std::fs::write(
+        &exp,
+        "name = \"warned\"\nscene = \"few.toml\"\n[axes]\n\"integrator.nused\" = [10, 300, 310, 320, 330, 340, 350]\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    // Six cells store too few photons (cell 0, nused 10, does not): three in full, then one
+    // line naming the other three.
+    let full: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("warning: cell "))
+        .collect();
+    assert_eq!(full.len(), 3, "{err}");
+    assert!(
+        full.iter().all(|l| l.contains("photons stored for nused")),
+        "{err}"
+    );
+    let rest: Vec<&str> = err
+        .lines()
+        .filter(|l| {
+            l.starts_with(
+                "warning: 3 more cell(s) with fewer than 10 × nused photons stored: cells ",
+            )
+        })
+        .collect();
+    assert_eq!(rest.len(), 1, "{err}");
+    let named: Vec<usize> = rest[0]
+        .split("cells ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .unwrap()
+        .split(',')
+        .flat_map(|part| match part.split_once('-') {
+            Some((a, b)) => (a.parse().unwrap()..=b.parse().unwrap()).collect::<Vec<usize>>(),
+            None => vec![part.parse().unwrap()],
+        })
+        .collect();
+    let printed: Vec<usize> = full
+        .iter()
+        .map(|l| {
+            l["warning: cell ".len()..]
+                .split(' ')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap()
+        })
+        .collect();
+    let mut all: Vec<usize> = named.iter().chain(&printed).copied().collect();
+    all.sort_unstable();
+    assert_eq!(all, vec![1, 2, 3, 4, 5, 6], "{err}");
+    // Every warned cell keeps its warning in its record, printed or not.
+    let cells: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(out.join("cells.json")).unwrap()).unwrap();
+    for (i, cell) in cells.iter().enumerate() {
+        let record: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(
+                out.join("cells")
+                    .join(cell["hash"].as_str().unwrap())
+                    .join("cell.json"),
+            )
+            .unwrap(),
+        )
+        .unwrap();
+        let warned = record["warnings"].as_array().is_some_and(|w| !w.is_empty());
+        assert_eq!(warned, i != 0, "cell {i}: {record}");
+    }
+}
+
+#[test]
 fn cached_cells_record_and_report_their_measured_error() {
     let tmp = tempfile::tempdir().unwrap();
     let exp = write_experiment(

@@ -42,6 +42,17 @@ pub enum RenderWarning {
     },
 }
 
+impl RenderWarning {
+    /// What the warning is about, in a few words: a run prints each kind in full for its
+    /// first cells and then names the other cells with it once.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            RenderWarning::FewPhotons { .. } => "fewer than 10 × nused photons stored",
+            RenderWarning::Transparent { .. } => "a mean free path longer than the volume",
+        }
+    }
+}
+
 impl std::fmt::Display for RenderWarning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match *self {

@@ -43,8 +43,8 @@ pub(crate) struct CellWarning {
     pub(crate) index: usize,
     /// `key = value, …`.
     pub(crate) label: String,
-    /// The warning, a sentence.
-    pub(crate) message: String,
+    /// The warning.
+    pub(crate) warning: volphot::RenderWarning,
 }
 
 /// Where a group is rendered and with what.
@@ -200,7 +200,7 @@ fn write_cells(
     scene: &Scene,
     out: &OutputDir,
 ) -> (usize, Vec<(usize, String)>, Vec<CellWarning>) {
-    let written: Vec<Result<Vec<String>>> = jobs
+    let written: Vec<Result<Vec<volphot::RenderWarning>>> = jobs
         .par_iter()
         .zip(shared.films.par_iter())
         .map(|((job, _lock), result)| {
@@ -221,10 +221,10 @@ fn write_cells(
         match outcome {
             Ok(warnings) => {
                 rendered += 1;
-                warned.extend(warnings.into_iter().map(|message| CellWarning {
+                warned.extend(warnings.into_iter().map(|warning| CellWarning {
                     index: job.spec.index,
                     label: job.spec.label(),
-                    message,
+                    warning,
                 }));
             }
             Err(e) => failures.push((job.spec.index, format!("{e:#}"))),
@@ -240,7 +240,7 @@ fn write_cell(
     result: &SharedFilm,
     mut timings: CellTimings,
     out: &OutputDir,
-) -> Result<Vec<String>> {
+) -> Result<Vec<volphot::RenderWarning>> {
     let film = &result.film;
     anyhow::ensure!(
         film.is_finite(),
@@ -263,11 +263,8 @@ fn write_cell(
     // The march's scene is any cell's of the group; each cell records its own parameters.
     let mut provenance = Provenance::of(scene);
     provenance.scene = p.clone();
-    let warnings: Vec<String> =
-        volphot::render_warnings(&p.integrator, &provenance.sigma, result.photons.as_ref())
-            .iter()
-            .map(ToString::to_string)
-            .collect();
+    let warnings =
+        volphot::render_warnings(&p.integrator, &provenance.sigma, result.photons.as_ref());
     let record = CellRecord {
         index: job.spec.index,
         hash: job.hash.clone(),
@@ -291,7 +288,7 @@ fn write_cell(
             .iter()
             .map(|f| FileCheck::of(dir, f))
             .collect::<Result<_>>()?,
-        warnings,
+        warnings: warnings.iter().map(ToString::to_string).collect(),
     };
     write_record(dir, &record)?;
     staged.commit()?;
@@ -299,5 +296,5 @@ fn write_cell(
     if let Some(key) = &job.reference {
         compare_with_reference(out, &job.hash, key, p, film)?;
     }
-    Ok(record.warnings)
+    Ok(warnings)
 }

@@ -23,8 +23,8 @@ use std::time::Instant;
 use anyhow::Result;
 use volphot::{Method, SearchPath};
 
+use group::{CellWarning, GroupContext, GroupOutcome, render_group};
 pub(crate) use group::{FAIL_CELLS_ENV, PANIC_CELLS_ENV};
-use group::{GroupContext, GroupOutcome, render_group};
 use reference::{ReferenceJob, ensure_reference};
 pub(crate) use scenes::Caches;
 
@@ -397,6 +397,7 @@ fn render_groups(
     let overall = crate::progress::bar(multi, total, "cells", "cells");
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<GroupOutcome>> = Mutex::new(Vec::new());
+    let warning_log = WarningLog::default();
     let render_one = |group: &[Job]| -> GroupOutcome {
         let integrators: Vec<_> = group
             .iter()
@@ -425,7 +426,7 @@ fn render_groups(
         });
         record_failures(group, &outcome, ctx.out, multi);
         for w in &outcome.warnings {
-            multi.suspend(|| eprintln!("warning: cell {} ({}): {}", w.index, w.label, w.message));
+            warning_log.note(w, multi);
         }
         overall.inc(group.len() as u64);
         outcome
@@ -441,7 +442,58 @@ fn render_groups(
         }
     });
     overall.finish_and_clear();
+    warning_log.finish(multi);
     results.into_inner().unwrap_or_else(|e| e.into_inner())
+}
+
+/// How many cells a run warns about in full per kind of warning.
+const WARNED_IN_FULL: usize = 3;
+
+/// The cells' warnings as a run prints them: each kind in full for its first
+/// [`WARNED_IN_FULL`] cells, then the other cells with it named once at the end — a grid of
+/// hundreds of under-resolved cells would otherwise repeat one paragraph hundreds of times.
+/// Each cell's record (`cells/<hash>/cell.json`, `warnings`) keeps its own in full.
+#[derive(Default)]
+struct WarningLog {
+    /// Per kind, in the order first met: how many were printed, and the cells not printed.
+    kinds: Mutex<Vec<(&'static str, usize, Vec<usize>)>>,
+}
+
+impl WarningLog {
+    /// Prints `w` in full, or counts it when its kind was printed often enough.
+    fn note(&self, w: &CellWarning, multi: &indicatif::MultiProgress) {
+        let mut kinds = self.kinds.lock().unwrap_or_else(|e| e.into_inner());
+        let kind = w.warning.kind();
+        let at = match kinds.iter().position(|(k, _, _)| *k == kind) {
+            Some(at) => at,
+            None => {
+                kinds.push((kind, 0, Vec::new()));
+                kinds.len() - 1
+            }
+        };
+        let (_, printed, unprinted) = &mut kinds[at];
+        if *printed < WARNED_IN_FULL {
+            *printed += 1;
+            multi.suspend(|| eprintln!("warning: cell {} ({}): {}", w.index, w.label, w.warning));
+        } else {
+            unprinted.push(w.index);
+        }
+    }
+
+    /// Names the cells whose warnings were counted, not printed.
+    fn finish(self, multi: &indicatif::MultiProgress) {
+        let kinds = self.kinds.into_inner().unwrap_or_else(|e| e.into_inner());
+        for (kind, _, mut cells) in kinds.into_iter().filter(|(_, _, c)| !c.is_empty()) {
+            cells.sort_unstable();
+            multi.suspend(|| {
+                eprintln!(
+                    "warning: {} more cell(s) with {kind}: cells {} (each cell's record, cells/<hash>/cell.json, has its warning in full)",
+                    cells.len(),
+                    crate::backend::compress_ranges(&cells)
+                )
+            });
+        }
+    }
 }
 
 /// The message of a panic payload (`panic!` with a literal or a formatted string).
