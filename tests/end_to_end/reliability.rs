@@ -655,6 +655,28 @@ fn report_on_a_cloned_study_keeps_its_recorded_results() {
         text.contains(&format!("recorded {recorded:>5}")),
         "status does not count {recorded} recorded cells:\n{text}"
     );
+    // A tuning study's cells come back from its plan, not from a new search (which would
+    // propose other settings).
+    let tuned = dir.path().join("tune_foot");
+    copy_as_cloned(&workspace().join("reports/tune_foot"), &tuned);
+    let cells = std::fs::read_to_string(tuned.join("cells.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1;
+    let before = snapshot(&tuned);
+    let out = output_within(sweep().arg("report").arg(&tuned), 60);
+    let err = stderr(&out);
+    assert!(!out.status.success(), "sweep report succeeded: {err}");
+    let want = format!(
+        "sweep tune experiments/tune_foot.toml --cells 0-{} --output",
+        cells - 1
+    );
+    assert!(err.contains(&want), "{err:?} lacks {want:?}");
+    assert!(
+        snapshot(&tuned) == before,
+        "sweep report changed the folder"
+    );
 }
 
 /// User strings in `report.md` are text, never markup (issue #45, case 8): the description

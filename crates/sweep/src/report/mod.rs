@@ -85,23 +85,33 @@ pub(crate) fn refuse_to_lose_recorded_cells(out: &OutputDir) -> Result<()> {
     if absent.is_empty() {
         return Ok(());
     }
-    let verb = if out.root().join("tune").is_dir() {
-        "tune"
+    // A tune's cells are rendered again from its plan (`--cells`): a new search would
+    // propose other settings.
+    let command = if out.root().join("tune").is_dir() {
+        format!(
+            "sweep tune {} --cells 0-{} --output {}",
+            plan.experiment_file.display(),
+            plan.cells.len().saturating_sub(1),
+            out.root().display()
+        )
     } else {
-        "run"
+        format!(
+            "sweep run {}{} --output {}",
+            plan.experiment_file.display(),
+            Quality::from_name(&plan.quality).map_or("", Quality::flag),
+            out.root().display()
+        )
     };
     anyhow::bail!(
         "{root}: {n} of {total} cells are recorded as done in cells.json, but their data \
          (cells/<hash>/) are not in this folder (cells {ranges}); a clone of the repository \
          holds only the tables. Nothing was written. To rebuild this report, render them \
-         again: `sweep {verb} {file}{flag} --output {root}` (the same seeds give the same \
-         images); or, to drop those results, delete cells.csv and cells.json first.",
+         again: `{command}` (the same seeds give the same images); or, to drop those \
+         results, delete cells.csv and cells.json first.",
         root = out.root().display(),
         n = absent.len(),
         total = plan.cells.len(),
         ranges = crate::backend::compress_ranges(&absent),
-        file = plan.experiment_file.display(),
-        flag = Quality::from_name(&plan.quality).map_or("", Quality::flag),
     )
 }
 
