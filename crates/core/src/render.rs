@@ -172,10 +172,15 @@ pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
     let mut record = record(scene, photons, march, reference_spp, timings);
     record.cache_error = cache_error;
     record.progressive = progressive;
-    record.warnings = crate::render_warnings(s, scene.medium().report(), record.photons.as_ref())
-        .iter()
-        .map(ToString::to_string)
-        .collect();
+    record.warnings = crate::render_warnings(
+        s,
+        scene.params().sigma.mapping,
+        scene.medium().report(),
+        record.photons.as_ref(),
+    )
+    .iter()
+    .map(ToString::to_string)
+    .collect();
     Ok(RenderOutput { film, record })
 }
 

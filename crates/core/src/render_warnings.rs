@@ -3,7 +3,7 @@
 //! [`render_warnings`] names them; `sweep render` and `sweep run` print them on stderr and
 //! keep them in the render's record (`warnings`).
 
-use crate::medium::SigmaReport;
+use crate::medium::{MappingKind, SigmaReport};
 use crate::photon::PhotonStats;
 use crate::scene::{IntegratorParams, Method};
 
@@ -18,7 +18,11 @@ pub const PHOTONS_PER_NUSED: u64 = 10;
 /// A nominal mean free path (`1/σt(d_min)`) longer than this share of the volume's largest
 /// extent is warned about: at the lowest density light then crosses the whole volume with
 /// `e^(−1)` = 37 % or more of it unscattered, so the medium is nearly transparent there and
-/// the image near black (photons pass through, eye rays find little to scatter).
+/// the image near black (photons pass through, eye rays find little to scatter). That holds
+/// where `d_min` is the tissue the mapping was set for (`thesis`, `mean-free-path`: §8.1.2
+/// sets σt there). Where it is only where a ramp begins (`opacity` presets, `explicit`
+/// coefficients), a nearly clear `d_min` is the point of the ramp, so there the densest
+/// material is judged: `1/σt(d_max)` longer than the volume.
 pub const TRANSPARENT_FREE_PATH_PERCENT: f32 = 100.0;
 
 /// Something a render's settings cannot resolve.
@@ -33,12 +37,15 @@ pub enum RenderWarning {
         /// Photons emitted for the map (the scene's `volume_photons`).
         emitted: u64,
     },
-    /// A nominal mean free path longer than the volume ([`TRANSPARENT_FREE_PATH_PERCENT`]).
+    /// A nominal mean free path longer than the volume ([`TRANSPARENT_FREE_PATH_PERCENT`]):
+    /// at `d_min` for the `thesis` and `mean-free-path` mappings, at `d_max` for the others.
     Transparent {
         /// `1/σt(d_min)` as % of the largest extent.
         at_d_min: f32,
         /// `1/σt(d_max)` as % of the largest extent.
         at_d_max: f32,
+        /// The scene's σ mapping (what to raise).
+        mapping: MappingKind,
     },
 }
 
@@ -70,14 +77,44 @@ impl std::fmt::Display for RenderWarning {
                     needed.ceil()
                 )
             }
-            RenderWarning::Transparent { at_d_min, at_d_max } => write!(
-                f,
-                "the nominal mean free path 1/σt(d_min) is {} of the volume's largest extent (1/σt(d_max): {}): light crosses the volume mostly unscattered where the density is low, and the image is near black there; raise sigma.t (the thesis uses 80, a mean free path of 1.25 %)",
-                percent(at_d_min),
-                percent(at_d_max)
-            ),
+            RenderWarning::Transparent {
+                at_d_min,
+                at_d_max,
+                mapping,
+            } => {
+                let raise = match mapping {
+                    MappingKind::Thesis => {
+                        "raise sigma.t (the thesis uses 80, a mean free path of 1.25 %)"
+                    }
+                    MappingKind::MeanFreePath => {
+                        "lower sigma.percent (the thesis's σt 80 is a mean free path of 1.25 %)"
+                    }
+                    MappingKind::Opacity => "raise sigma.scale",
+                    MappingKind::Explicit => "raise sigma_a and sigma_s",
+                };
+                if judged_at_d_min(mapping) {
+                    write!(
+                        f,
+                        "the nominal mean free path 1/σt(d_min) is {} of the volume's largest extent (1/σt(d_max): {}): light crosses the volume mostly unscattered where the density is low, and the image is near black there; {raise}",
+                        percent(at_d_min),
+                        percent(at_d_max)
+                    )
+                } else {
+                    write!(
+                        f,
+                        "even the densest material's mean free path 1/σt(d_max) is {} of the volume's largest extent: light crosses the whole volume mostly unscattered, and the image is near black; {raise}",
+                        percent(at_d_max)
+                    )
+                }
+            }
         }
     }
+}
+
+/// Whether a mapping sets σt for the tissue at `d_min` (so a clear `d_min` means a clear
+/// medium), rather than letting `d_min` be where a ramp begins.
+fn judged_at_d_min(mapping: MappingKind) -> bool {
+    matches!(mapping, MappingKind::Thesis | MappingKind::MeanFreePath)
 }
 
 /// A share of the extent as a warning gives it (`∞` when nothing scatters at all).
@@ -89,10 +126,11 @@ fn percent(p: f32) -> String {
     }
 }
 
-/// What a render with `integrator` settings on a medium described by `sigma`, with the
-/// photon map `photons` (when it traced one), cannot resolve.
+/// What a render with `integrator` settings on a medium described by `sigma` (mapped by
+/// `mapping`), with the photon map `photons` (when it traced one), cannot resolve.
 pub fn render_warnings(
     integrator: &IntegratorParams,
+    mapping: MappingKind,
     sigma: &SigmaReport,
     photons: Option<&PhotonStats>,
 ) -> Vec<RenderWarning> {
@@ -106,17 +144,22 @@ pub fn render_warnings(
             emitted: integrator.volume_photons,
         });
     }
+    let at_d_max = if sigma.sigma_t_at_dmax > 0.0 {
+        100.0 / (sigma.sigma_t_at_dmax * sigma.largest_extent)
+    } else {
+        f32::INFINITY
+    };
+    let judged = if judged_at_d_min(mapping) {
+        sigma.mean_free_path_percent
+    } else {
+        at_d_max
+    };
     // NaN (no density at all) counts as transparent, as infinity does.
-    let free_path = sigma.mean_free_path_percent;
-    if free_path.is_nan() || free_path > TRANSPARENT_FREE_PATH_PERCENT {
-        let at_d_max = if sigma.sigma_t_at_dmax > 0.0 {
-            100.0 / (sigma.sigma_t_at_dmax * sigma.largest_extent)
-        } else {
-            f32::INFINITY
-        };
+    if judged.is_nan() || judged > TRANSPARENT_FREE_PATH_PERCENT {
         warnings.push(RenderWarning::Transparent {
             at_d_min: sigma.mean_free_path_percent,
             at_d_max,
+            mapping,
         });
     }
     warnings
@@ -149,8 +192,10 @@ mod tests {
             volume_photons: 10_000,
             ..Default::default()
         };
-        assert!(render_warnings(&i, &sigma(80.0), Some(&stored(1500))).is_empty());
-        let few = render_warnings(&i, &sigma(80.0), Some(&stored(264)));
+        assert!(
+            render_warnings(&i, MappingKind::Thesis, &sigma(80.0), Some(&stored(1500))).is_empty()
+        );
+        let few = render_warnings(&i, MappingKind::Thesis, &sigma(80.0), Some(&stored(264)));
         assert_eq!(
             few,
             vec![RenderWarning::FewPhotons {
@@ -170,15 +215,52 @@ mod tests {
             multiple: false,
             ..i.clone()
         };
-        assert!(render_warnings(&single, &sigma(80.0), Some(&stored(264))).is_empty());
-        // 1/σt(d_min) = 100 % of the extent is not yet transparent; 238 % is.
-        assert!(render_warnings(&i, &sigma(1.0), None).is_empty());
-        let thin = render_warnings(&i, &sigma(1.0 / 2.38), None);
         assert!(
-            matches!(thin[..], [RenderWarning::Transparent { at_d_min, at_d_max }]
+            render_warnings(
+                &single,
+                MappingKind::Thesis,
+                &sigma(80.0),
+                Some(&stored(264))
+            )
+            .is_empty()
+        );
+        // 1/σt(d_min) = 100 % of the extent is not yet transparent; 238 % is.
+        assert!(render_warnings(&i, MappingKind::Thesis, &sigma(1.0), None).is_empty());
+        let thin = render_warnings(&i, MappingKind::Thesis, &sigma(1.0 / 2.38), None);
+        assert!(
+            matches!(thin[..], [RenderWarning::Transparent { at_d_min, at_d_max, .. }]
                 if (at_d_min - 238.0).abs() < 0.1 && (at_d_max - 59.5).abs() < 0.1),
             "{thin:?}"
         );
         assert!(thin[0].to_string().contains("238 %"), "{}", thin[0]);
+    }
+
+    /// A Slicer preset's ramp starts at a nearly clear density: that is its point, not a
+    /// transparent medium (presets-paper's bone and soft-tissue cells said "805 %" there
+    /// while their densest material had a mean free path under 1 %). Its densest material
+    /// is judged instead.
+    #[test]
+    fn a_ramp_that_starts_clear_is_judged_by_its_densest_material() {
+        let i = IntegratorParams::default();
+        // d_min 1, d_max 400: 1/σt(d_min) 805 %, 1/σt(d_max) 2 %.
+        let ramp = |t: f32| {
+            let c = Coefficients {
+                sigma_t_base: t,
+                albedo: glam::Vec3::splat(0.8),
+            };
+            SigmaReport::new(&c, 1.0, 400.0, 1.0)
+        };
+        assert!(render_warnings(&i, MappingKind::Opacity, &ramp(100.0 / 805.0), None).is_empty());
+        assert!(!render_warnings(&i, MappingKind::Thesis, &ramp(100.0 / 805.0), None).is_empty());
+        for mapping in [MappingKind::Opacity, MappingKind::Explicit] {
+            let clear = render_warnings(&i, mapping, &ramp(100.0 / 805.0 / 500.0), None);
+            assert!(
+                matches!(clear[..], [RenderWarning::Transparent { at_d_max, .. }] if at_d_max > 100.0),
+                "{clear:?}"
+            );
+            let text = clear[0].to_string();
+            assert!(text.contains("densest material"), "{text}");
+            assert!(!text.contains("sigma.t"), "{text}");
+        }
     }
 }

@@ -263,8 +263,12 @@ fn write_cell(
     // The march's scene is any cell's of the group; each cell records its own parameters.
     let mut provenance = Provenance::of(scene);
     provenance.scene = p.clone();
-    let warnings =
-        volphot::render_warnings(&p.integrator, &provenance.sigma, result.photons.as_ref());
+    let warnings = volphot::render_warnings(
+        &p.integrator,
+        p.sigma.mapping,
+        &provenance.sigma,
+        result.photons.as_ref(),
+    );
     let record = CellRecord {
         index: job.spec.index,
         hash: job.hash.clone(),
