@@ -144,11 +144,7 @@ pub fn render_warnings(
             emitted: integrator.volume_photons,
         });
     }
-    let at_d_max = if sigma.sigma_t_at_dmax > 0.0 {
-        100.0 / (sigma.sigma_t_at_dmax * sigma.largest_extent)
-    } else {
-        f32::INFINITY
-    };
+    let at_d_max = sigma.mean_free_path_percent_at_dmax();
     let judged = if judged_at_d_min(mapping) {
         sigma.mean_free_path_percent
     } else {

@@ -460,11 +460,7 @@ impl SigmaReport {
     /// Builds the report from resolved coefficients.
     pub fn new(c: &Coefficients, d_min: f32, d_max: f32, largest_extent: f32) -> Self {
         let sigma_t_at_dmin = c.sigma_t_base * d_min;
-        let mfp = if sigma_t_at_dmin > 0.0 {
-            100.0 / (sigma_t_at_dmin * largest_extent)
-        } else {
-            f32::INFINITY
-        };
+        let mfp = free_path_percent(sigma_t_at_dmin, largest_extent);
         SigmaReport {
             d_min,
             d_max,
@@ -476,6 +472,20 @@ impl SigmaReport {
             mean_free_path_percent: mfp,
             median_free_path_percent: mfp * std::f32::consts::LN_2,
         }
+    }
+
+    /// `1/σt(d_max)` as % of the largest extent: the densest material's mean free path.
+    pub fn mean_free_path_percent_at_dmax(&self) -> f32 {
+        free_path_percent(self.sigma_t_at_dmax, self.largest_extent)
+    }
+}
+
+/// `1/σt` as % of `largest_extent` (infinite where nothing scatters).
+fn free_path_percent(sigma_t: f32, largest_extent: f32) -> f32 {
+    if sigma_t > 0.0 {
+        100.0 / (sigma_t * largest_extent)
+    } else {
+        f32::INFINITY
     }
 }
 
