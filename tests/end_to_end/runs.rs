@@ -449,30 +449,49 @@ fn renders_outside_what_their_settings_resolve_warn() {
     assert!(!err.contains("warning"), "{err}");
     assert!(warnings.is_empty(), "{warnings:?}");
     // A cell of a run records its warnings and prints them.
-    let exp = dir.join("e.toml");
-    std::fs::write(
-        &exp,
-        "name = \"warned\"\nscene = \"few.toml\"\n[axes]\n\"integrator.nused\" = [10, 300]\n",
-    )
-    .unwrap();
-    let out = dir.join("out");
-    let o = run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
-    let err = String::from_utf8_lossy(&o.stderr);
+    let (out, err) = run_few_photons(dir, "[10, 300]");
     assert!(
         err.contains("warning: cell 1") && err.contains("nused 300") && !err.contains("cell 0"),
         "{err}"
     );
+    for (i, (warned, record)) in recorded_warnings(&out).iter().enumerate() {
+        assert_eq!(*warned, i == 1, "cell {i}: {record}");
+    }
+}
+
+/// A run of `few.toml` (written by [`tiny_scene`] in `dir`) over `integrator.nused` =
+/// `nused`: its output folder and stderr.
+fn run_few_photons(dir: &Path, nused: &str) -> (PathBuf, String) {
+    let exp = dir.join("e.toml");
+    std::fs::write(
+        &exp,
+        format!(
+            "name = \"warned\"\nscene = \"few.toml\"\n[axes]\n\"integrator.nused\" = {nused}\n"
+        ),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
+    (out, String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+/// Per cell of the run in `out`, in plan order: whether its record keeps a warning, and the
+/// record.
+fn recorded_warnings(out: &Path) -> Vec<(bool, serde_json::Value)> {
     let cells: Vec<serde_json::Value> =
         serde_json::from_str(&std::fs::read_to_string(out.join("cells.json")).unwrap()).unwrap();
-    for (i, cell) in cells.iter().enumerate() {
-        let hash = cell["hash"].as_str().unwrap();
-        let record: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(out.join("cells").join(hash).join("cell.json")).unwrap(),
-        )
-        .unwrap();
-        let warned = record["warnings"].as_array().is_some_and(|w| !w.is_empty());
-        assert_eq!(warned, i == 1, "cell {i}: {record}");
-    }
+    cells
+        .iter()
+        .map(|cell| {
+            let hash = cell["hash"].as_str().unwrap();
+            let record: serde_json::Value = serde_json::from_str(
+                &std::fs::read_to_string(out.join("cells").join(hash).join("cell.json")).unwrap(),
+            )
+            .unwrap();
+            let warned = record["warnings"].as_array().is_some_and(|w| !w.is_empty());
+            (warned, record)
+        })
+        .collect()
 }
 
 #[test]
@@ -480,15 +499,7 @@ fn a_run_prints_each_kind_of_warning_in_full_a_few_times_and_names_the_other_cel
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     tiny_scene(dir, "few", 80.0, 300, 300);
-    let exp = dir.join("e.toml");
-    std::fs::write(
-        &exp,
-        "name = \"warned\"\nscene = \"few.toml\"\n[axes]\n\"integrator.nused\" = [10, 300, 310, 320, 330, 340, 350]\n",
-    )
-    .unwrap();
-    let out = dir.join("out");
-    let o = run_ok(sweep().arg(&exp).arg("--output").arg(&out).arg("--quiet"));
-    let err = String::from_utf8_lossy(&o.stderr);
+    let (out, err) = run_few_photons(dir, "[10, 300, 310, 320, 330, 340, 350]");
     // Six cells store too few photons (cell 0, nused 10, does not): three in full, then one
     // line naming the other three.
     let full: Vec<&str> = err
@@ -535,20 +546,8 @@ fn a_run_prints_each_kind_of_warning_in_full_a_few_times_and_names_the_other_cel
     all.sort_unstable();
     assert_eq!(all, vec![1, 2, 3, 4, 5, 6], "{err}");
     // Every warned cell keeps its warning in its record, printed or not.
-    let cells: Vec<serde_json::Value> =
-        serde_json::from_str(&std::fs::read_to_string(out.join("cells.json")).unwrap()).unwrap();
-    for (i, cell) in cells.iter().enumerate() {
-        let record: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(
-                out.join("cells")
-                    .join(cell["hash"].as_str().unwrap())
-                    .join("cell.json"),
-            )
-            .unwrap(),
-        )
-        .unwrap();
-        let warned = record["warnings"].as_array().is_some_and(|w| !w.is_empty());
-        assert_eq!(warned, i != 0, "cell {i}: {record}");
+    for (i, (warned, record)) in recorded_warnings(&out).iter().enumerate() {
+        assert_eq!(*warned, i != 0, "cell {i}: {record}");
     }
 }
 
