@@ -25,6 +25,9 @@ use crate::medium::Phase;
 const WIDE_NEIGHBOURS: f32 = 2.0;
 /// … within this many times its largest radius.
 const WIDE_RADIUS: f32 = 1.25;
+/// A range query near the last gather stops past this many times `k` photons (about 3–7
+/// times `k` when the density is even; millions where a sparse region's reach meets bone).
+const BALL_LIMIT: f32 = 16.0;
 /// Float headroom on the validity test: the two distance computations (kiddo's and ours)
 /// round differently by ~1e-7 relative.
 const COMPLETENESS_MARGIN: f32 = 1.0 - 1e-4;
@@ -55,6 +58,8 @@ struct Candidates {
     ys: Vec<f32>,
     zs: Vec<f32>,
     photons: Vec<u32>,
+    /// Scratch for a bounded range query's photons.
+    found: Vec<u32>,
     /// Cached terms per [`Gathered`] kind, and what they were computed for.
     terms: [Vec<[i64; 3]>; 2],
     terms_for: [Option<(Vec3, u32, u64)>; 2],
@@ -125,13 +130,19 @@ impl Neighbours {
                 // ball a little wider than `maxdist`.
                 1 if k >= map.len() => self.candidates.query_ball(map, p, maxdist * WIDE_RADIUS),
                 // Near the last full gather, a ball a little wider than its bound holds the
-                // k nearest of `p`: a range query, cheaper than a best-n one.
+                // k nearest of `p`: a range query, cheaper than a best-n one — unless the
+                // ball reaches into much denser photons than the last gather saw (a sparse
+                // region's wide reach stepping up to bone), where a best-n query bounded
+                // by the same ball takes only the nearest.
                 1 => match self.since_previous(p, k, maxdist) {
                     Some((r, moved)) if moved < 0.5 * r => {
                         let radius = ((r + moved) * WIDE_RADIUS).min(maxdist * WIDE_RADIUS);
-                        self.candidates.query_ball(map, p, radius)
+                        let limit = (k as f32 * BALL_LIMIT).ceil() as usize + 64;
+                        if !self.candidates.query_ball_at_most(map, p, radius, limit) {
+                            self.candidates.query_wide(map, p, k, radius)
+                        }
                     }
-                    _ => self.candidates.query_wide(map, p, k, maxdist),
+                    _ => self.candidates.query_wide(map, p, k, maxdist * WIDE_RADIUS),
                 },
                 2 => self.candidates.query_ball(map, p, reach * (1.0 + 1e-3)),
                 _ => {}
@@ -246,10 +257,10 @@ impl Neighbours {
 }
 
 impl Candidates {
-    /// Replaces the candidates by one wide query at `p`.
-    fn query_wide(&mut self, map: &PhotonMap, p: Vec3, k: usize, maxdist: f32) {
+    /// Replaces the candidates by one wide query at `p`: the nearest photons (a few times
+    /// `k`) within `radius`.
+    fn query_wide(&mut self, map: &PhotonMap, p: Vec3, k: usize, radius: f32) {
         let wide = (k as f32 * WIDE_NEIGHBOURS).ceil() as usize + 16;
-        let radius = maxdist * WIDE_RADIUS;
         let found = map
             .tree()
             .query(&p.to_array())
@@ -276,6 +287,30 @@ impl Candidates {
             .unsorted()
             .execute();
         self.keep(map, p, radius, found.iter().map(|h| h.item));
+    }
+
+    /// Replaces the candidates by every photon within `radius` of `p`, as
+    /// [`query_ball`](Self::query_ball) does, when there are at most `limit` of them;
+    /// otherwise stops walking the tree at the first photon past the limit and returns
+    /// `false`, the candidates left for the caller to replace.
+    fn query_ball_at_most(&mut self, map: &PhotonMap, p: Vec3, radius: f32, limit: usize) -> bool {
+        let mut found = std::mem::take(&mut self.found);
+        found.clear();
+        found.extend(
+            map.tree()
+                .query(&p.to_array())
+                .within::<SquaredEuclidean<f32>>(radius * radius)
+                .unsorted()
+                .iter()
+                .take(limit + 1)
+                .map(|h| h.item),
+        );
+        let complete = found.len() <= limit;
+        if complete {
+            self.keep(map, p, radius, found.iter().copied());
+        }
+        self.found = found;
+        complete
     }
 
     fn keep(
@@ -421,6 +456,47 @@ mod tests {
         assert!(
             reused > 6000,
             "only {reused} of 12000 gathers reused candidates"
+        );
+    }
+
+    #[test]
+    fn a_sparse_reach_stepping_towards_dense_photons_keeps_few_candidates() {
+        // 2 000 photons spread through the cube and 60 000 in a ball of radius 0.02 at its
+        // centre: an eye ray from the sparse side reaches the ball with a reach of ~0.2.
+        let mut rng = Rng::stream(11, Domain::Misc, 0);
+        let mut point = |spread: f32| {
+            (Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5) * spread
+                + Vec3::splat(0.5)
+        };
+        let mut positions: Vec<Vec3> = (0..2000).map(|_| point(1.0)).collect();
+        positions.extend(
+            (0..60_000)
+                .map(|_| point(0.023))
+                .filter(|q| q.distance(Vec3::splat(0.5)) < 0.02),
+        );
+        let photons = positions
+            .into_iter()
+            .map(|position| Photon {
+                position,
+                direction: Vec3::Z,
+                power: Vec3::ONE,
+                sigma_t: 1.0,
+            })
+            .collect();
+        let map = PhotonMap::new(photons, PhotonStats::default());
+        let (k, maxdist) = (50, 0.5);
+        let limit = (k as f32 * BALL_LIMIT).ceil() as usize + 64;
+        let mut neighbours = Neighbours::default();
+        let mut most = 0;
+        for step in 0..100 {
+            let p = Vec3::new(0.1 + 0.004 * step as f32, 0.5, 0.5);
+            let got = gathered(&mut neighbours, &map, p, k, maxdist);
+            assert_eq!(got, brute_gather(&map, p, k, maxdist), "step {step}");
+            most = most.max(neighbours.candidates.photons.len());
+        }
+        assert!(
+            most <= limit,
+            "{most} candidates for k = {k} (limit {limit})"
         );
     }
 
