@@ -25,9 +25,12 @@ use crate::medium::Phase;
 const WIDE_NEIGHBOURS: f32 = 2.0;
 /// … within this many times its largest radius.
 const WIDE_RADIUS: f32 = 1.25;
-/// A range query near the last gather stops past this many times `k` photons (about 3–7
-/// times `k` when the density is even; millions where a sparse region's reach meets bone).
-const BALL_LIMIT: f32 = 16.0;
+/// A range query near the last gather stops past this many photons for a gather of `k`
+/// (it holds about 3–7 times `k` when the density is even; millions where a sparse
+/// region's reach meets bone).
+fn ball_limit(k: usize) -> usize {
+    16 * k + 64
+}
 /// Float headroom on the validity test: the two distance computations (kiddo's and ours)
 /// round differently by ~1e-7 relative.
 const COMPLETENESS_MARGIN: f32 = 1.0 - 1e-4;
@@ -58,8 +61,6 @@ struct Candidates {
     ys: Vec<f32>,
     zs: Vec<f32>,
     photons: Vec<u32>,
-    /// Scratch for a bounded range query's photons.
-    found: Vec<u32>,
     /// Cached terms per [`Gathered`] kind, and what they were computed for.
     terms: [Vec<[i64; 3]>; 2],
     terms_for: [Option<(Vec3, u32, u64)>; 2],
@@ -137,8 +138,10 @@ impl Neighbours {
                 1 => match self.since_previous(p, k, maxdist) {
                     Some((r, moved)) if moved < 0.5 * r => {
                         let radius = ((r + moved) * WIDE_RADIUS).min(maxdist * WIDE_RADIUS);
-                        let limit = (k as f32 * BALL_LIMIT).ceil() as usize + 64;
-                        if !self.candidates.query_ball_at_most(map, p, radius, limit) {
+                        if !self
+                            .candidates
+                            .query_ball_at_most(map, p, radius, ball_limit(k))
+                        {
                             self.candidates.query_wide(map, p, k, radius)
                         }
                     }
@@ -291,12 +294,14 @@ impl Candidates {
 
     /// Replaces the candidates by every photon within `radius` of `p`, as
     /// [`query_ball`](Self::query_ball) does, when there are at most `limit` of them;
-    /// otherwise stops walking the tree at the first photon past the limit and returns
-    /// `false`, the candidates left for the caller to replace.
+    /// otherwise stops walking the tree at the first photon past the limit, leaves no
+    /// candidates and returns `false`.
     fn query_ball_at_most(&mut self, map: &PhotonMap, p: Vec3, radius: f32, limit: usize) -> bool {
-        let mut found = std::mem::take(&mut self.found);
-        found.clear();
-        found.extend(
+        // One statement: the iterator borrows the query it is built from.
+        self.keep(
+            map,
+            p,
+            radius,
             map.tree()
                 .query(&p.to_array())
                 .within::<SquaredEuclidean<f32>>(radius * radius)
@@ -305,11 +310,10 @@ impl Candidates {
                 .take(limit + 1)
                 .map(|h| h.item),
         );
-        let complete = found.len() <= limit;
-        if complete {
-            self.keep(map, p, radius, found.iter().copied());
+        let complete = self.photons.len() <= limit;
+        if !complete {
+            self.map = 0;
         }
-        self.found = found;
         complete
     }
 
@@ -485,7 +489,7 @@ mod tests {
             .collect();
         let map = PhotonMap::new(photons, PhotonStats::default());
         let (k, maxdist) = (50, 0.5);
-        let limit = (k as f32 * BALL_LIMIT).ceil() as usize + 64;
+        let limit = ball_limit(k);
         let mut neighbours = Neighbours::default();
         let mut most = 0;
         for step in 0..100 {
