@@ -88,7 +88,7 @@ pub(crate) enum Command {
     Status(StatusArgs),
     /// Check every number a document cites from a study against the committed data.
     #[command(
-        after_help = "Example:\n  sweep claims reports/REPRODUCTION.md README.md\n\nA cited number carries its query in a comment right after it:\n  0.157<!-- = mean(single_vs_multiple-paper: ms_share | scene=skeleton, sigma.t=6) -->\nSources are study folders (their cells.csv), CSV or JSON files, relative to the document.\nAggregates: value, mean, min, max, sum, count, median; + - * / and parentheses combine them."
+        after_help = "Examples:\n  sweep claims reports/REPRODUCTION.md README.md\n  sweep claims --uncited reports/REPRODUCTION.md\n\nA cited number carries its query in a comment right after it:\n  0.157<!-- = mean(single_vs_multiple-paper: ms_share where scene=skeleton, sigma.t=6) -->\nand a comparison states what must hold on the data, for instance for every seed:\n  <!-- holds: min_over(seed: mean(s: rmse where nused=25) - mean(s: rmse where nused=150)) > 0 -->\nSources are study folders (their cells.csv), CSV, JSON or TOML files inside the document's\nfolder. Aggregates: value, mean, min, max, sum, count, median, sd, se, spread, and the same\nover groups (min_over(seed: …)); + - * /, abs and parentheses combine them. A number\nprinted with one significant digit must be exact or carry a tolerance (`= … ± 0.5`); a\nnumber that is not data is marked `<!-- given: why -->`."
     )]
     Claims(ClaimsArgs),
     /// Write DIR/index.html: one card per study folder in DIR, the paper and the benchmarks.
@@ -434,14 +434,22 @@ pub(crate) struct ClaimsArgs {
     #[arg(required = true)]
     pub(crate) documents: Vec<PathBuf>,
     /// Rewrite every number that differs from its data, in the same form (same decimals).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "uncited")]
     pub(crate) update: bool,
     /// Print every claim, not only those that differ or cannot be checked.
     #[arg(long, short)]
     pub(crate) verbose: bool,
-    /// Resolve the claims' sources against this folder instead of each document's own.
+    /// Resolve the claims' sources against this folder instead of each document's own
+    /// (sources must stay inside it).
     #[arg(long, value_name = "DIR")]
     pub(crate) base: Option<PathBuf>,
+    /// A document without any claim is not an error.
+    #[arg(long)]
+    pub(crate) allow_empty: bool,
+    /// List the numbers that look measured (a decimal, or a unit such as %, ×, s) and carry
+    /// no claim; fails when there is any.
+    #[arg(long)]
+    pub(crate) uncited: bool,
 }
 
 /// `sweep bench`.

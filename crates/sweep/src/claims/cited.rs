@@ -18,7 +18,16 @@ pub(crate) struct Cited {
     pub(crate) minus: char,
     /// Whether the exponent is written `·10ⁿ` (else `eN`).
     pub(crate) superscript: bool,
+    /// Significant digits as printed: `0.157` 3, `10 308` 5, `1` 1, `0.0` 0.
+    pub(crate) significant: usize,
+    /// Why the printed number cannot stand for a value (an exponent out of range, a value
+    /// too large for a double): such a number is an error, never a silent infinity.
+    pub(crate) problem: Option<String>,
 }
+
+/// The largest power of ten a cited number may carry: doubles end near 10³⁰⁸, and a
+/// rewritten number must print as what it was.
+pub(crate) const MAX_EXPONENT: i32 = 300;
 
 /// Thousands separators: the narrow and thin spaces (and a no-break space). A plain space
 /// separates two numbers (`nused 25 150`), so a document writes `10\u{202f}308`.
@@ -29,6 +38,25 @@ impl Cited {
     /// Whether `value` prints as this number: within half a unit of its last digit.
     pub(crate) fn agrees(&self, value: f64) -> bool {
         (value - self.value).abs() <= self.half_unit() * (1.0 + 1e-9) + 1e-300
+    }
+
+    /// Whether `value` is this number exactly (to rounding of the arithmetic): what a
+    /// number printed with fewer than two significant digits must be, so that `1×` does
+    /// not pass for 1.244.
+    pub(crate) fn equals_exactly(&self, value: f64) -> bool {
+        (value - self.value).abs() <= 1e-9 * self.value.abs().max(1.0)
+    }
+
+    /// The same form with enough decimals for two significant digits of `value`.
+    pub(crate) fn two_significant(&self, value: f64) -> Cited {
+        let mantissa = (value.abs().max(1e-300)) / 10f64.powi(self.exponent);
+        let leading = mantissa.log10().floor() as i32;
+        let decimals = (1 - leading).clamp(self.decimals as i32, 20) as usize;
+        Cited {
+            decimals,
+            significant: 2,
+            ..self.clone()
+        }
     }
 
     pub(crate) fn half_unit(&self) -> f64 {
@@ -75,8 +103,13 @@ impl Cited {
 
 /// The last number in `text`, if any.
 pub(crate) fn last_number(text: &str) -> Option<Cited> {
+    numbers(text).pop()
+}
+
+/// Every number in `text`, in order (a digit glued to a word, `p99` or `C1`, starts none).
+pub(crate) fn numbers(text: &str) -> Vec<Cited> {
     let chars: Vec<(usize, char)> = text.char_indices().collect();
-    let mut found = None;
+    let mut found = Vec::new();
     let mut i = 0;
     while i < chars.len() {
         let c = chars[i].1;
@@ -86,7 +119,7 @@ pub(crate) fn last_number(text: &str) -> Option<Cited> {
                 !(p.is_alphanumeric() || p == '.' || p == '_')
             });
         if starts && let Some((cited, end)) = number_at(text, &chars, i) {
-            found = Some(cited);
+            found.push(cited);
             i = end;
             continue;
         }
@@ -141,7 +174,22 @@ fn number_at(text: &str, chars: &[(usize, char)], i: usize) -> Option<(Cited, us
     // <<Exponent>>: `e-5`, or `·10⁻⁴` / `×10⁻⁴`.
     let (exponent, superscript, k) = exponent_at(chars, k);
     let mantissa: f64 = format!("{int}.{frac}0").parse().ok()?;
+    let mut problem = None;
+    let exponent = match exponent {
+        Some(e) if e.abs() <= MAX_EXPONENT => e,
+        _ => {
+            problem = Some(format!(
+                "its power of ten is beyond ±{MAX_EXPONENT}; a cited number must be a finite double"
+            ));
+            0
+        }
+    };
     let value = mantissa * 10f64.powi(exponent) * if negative { -1.0 } else { 1.0 };
+    if !value.is_finite() && problem.is_none() {
+        problem = Some("it is too large for a double; a cited number must be finite".into());
+    }
+    let digits = format!("{int}{frac}");
+    let significant = digits.trim_start_matches('0').len();
     let end_byte = chars.get(k).map_or(text.len(), |(b, _)| *b);
     Some((
         Cited {
@@ -152,26 +200,33 @@ fn number_at(text: &str, chars: &[(usize, char)], i: usize) -> Option<(Cited, us
             separator,
             minus,
             superscript,
+            significant,
+            problem,
         },
         k,
     ))
 }
 
-fn exponent_at(chars: &[(usize, char)], k: usize) -> (i32, bool, usize) {
+/// The power of ten after a mantissa ending at `k`: `(Some(e), superscript, end)`, or
+/// `None` for an exponent too long to be one (it is refused, never wrapped or dropped).
+fn exponent_at(chars: &[(usize, char)], k: usize) -> (Option<i32>, bool, usize) {
     let at = |k: usize| chars.get(k).map(|(_, c)| *c);
+    // Accumulates decimal digits, None past i32 (an exponent of 10 digits is no exponent).
+    let push = |e: Option<i32>, d: u32| e?.checked_mul(10)?.checked_add(d as i32);
     if matches!(at(k), Some('e' | 'E')) {
         let mut j = k + 1;
         let negative = matches!(at(j), Some('-' | '−'));
         if matches!(at(j), Some('-' | '−' | '+')) {
             j += 1;
         }
-        let mut digits = String::new();
-        while let Some(c) = at(j).filter(char::is_ascii_digit) {
-            digits.push(c);
+        let (mut e, mut any) = (Some(0), false);
+        while let Some(d) = at(j).and_then(|c| c.to_digit(10)) {
+            e = push(e, d);
+            any = true;
             j += 1;
         }
-        if let Ok(e) = digits.parse::<i32>() {
-            return (if negative { -e } else { e }, false, j);
+        if any {
+            return (e.map(|e| if negative { -e } else { e }), false, j);
         }
     }
     if matches!(at(k), Some('·' | '×')) && at(k + 1) == Some('1') && at(k + 2) == Some('0') {
@@ -180,18 +235,17 @@ fn exponent_at(chars: &[(usize, char)], k: usize) -> (i32, bool, usize) {
         if negative {
             j += 1;
         }
-        let mut e = 0i32;
-        let mut any = false;
+        let (mut e, mut any) = (Some(0), false);
         while let Some(d) = at(j).and_then(|c| SUPERSCRIPTS.iter().position(|s| *s == c)) {
-            e = e * 10 + d as i32;
+            e = push(e, d as u32);
             any = true;
             j += 1;
         }
         if any {
-            return (if negative { -e } else { e }, true, j);
+            return (e.map(|e| if negative { -e } else { e }), true, j);
         }
     }
-    (0, false, k)
+    (Some(0), false, k)
 }
 
 #[cfg(test)]
@@ -226,5 +280,28 @@ mod tests {
         assert!(last_number("σt(d_min)").is_none());
         let c = last("a-1");
         assert_eq!(c.value, 1.0, "a hyphen after a word is not a minus");
+        assert_eq!(last("0.157").significant, 3);
+        assert_eq!(last("0.0").significant, 0);
+        assert_eq!(last("1×").significant, 1);
+        assert!(!last("1×").equals_exactly(1.244) && last("2").equals_exactly(2.0));
+    }
+
+    /// Case 10 of the fourth reliability round: `1e400` was read as infinity (and agreed
+    /// with 5), `1e-400` as 0, and a long superscript exponent wrapped.
+    #[test]
+    fn numbers_beyond_a_double_are_problems_not_values() {
+        for text in [
+            "1e400",
+            "1e-400",
+            "1e308",
+            "2·10⁻¹⁰⁹⁷²⁶²⁵⁷²",
+            "3e99999999999",
+            &"9".repeat(400),
+        ] {
+            let c = last(text);
+            assert!(c.problem.is_some(), "{text}: {c:?}");
+        }
+        assert!(last("1e300").problem.is_none());
+        assert!(last("7.47·10⁻⁴").problem.is_none());
     }
 }
