@@ -18,6 +18,7 @@ use volphot_tests::{run_ok, skip, sweep, write_experiment};
 mod committed;
 mod explorer;
 mod firefox;
+mod security;
 
 /// Chromium from `$CHROMIUM` or the usual Debian paths.
 fn chromium() -> Option<PathBuf> {

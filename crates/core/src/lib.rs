@@ -100,13 +100,13 @@ pub use render::{
     march_key, photon_map_key, record, render, render_shared, shared_progress_units,
 };
 pub use render_warnings::{
-    PHOTONS_PER_NUSED, RenderWarning, TRANSPARENT_FREE_PATH_PERCENT, render_warnings,
+    PHOTONS_PER_NUSED, PhotonKey, RenderWarning, TRANSPARENT_FREE_PATH_PERCENT, render_warnings,
 };
 pub use scene::{
     BoxParams, Camera, CameraParams, DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW,
     Estimate, EyeRays, FilmParams, Incident, InitialRadius, IntegratorParams, Intensity, Light,
-    LightKind, LightParams, MAX_MARCH_STEPS, Method, MitsubaExport, MsEstimator, NormalizeKind,
-    PbrtImport, PhaseParams, PointLight, Quadrature, RadiusRule, Scene, SceneParams,
+    LightKind, LightParams, MAX_MARCH_STEPS, MAX_PHOTONS, Method, MitsubaExport, MsEstimator,
+    NormalizeKind, PbrtImport, PhaseParams, PointLight, Quadrature, RadiusRule, Scene, SceneParams,
     ShadowEstimator, SpotFalloff, SpotLight, ThreePointParams, Tracker, Unmapped, VolumeParams,
     build_medium, export_mitsuba, import_pbrt, key_at, line_col, load_params, load_volume, locate,
     locate_error, three_point, toml_error, validate_params,

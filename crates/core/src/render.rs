@@ -177,6 +177,7 @@ pub fn render(scene: &Scene, control: &Control<'_>) -> Result<RenderOutput> {
         scene.params().sigma.mapping,
         scene.medium().report(),
         record.photons.as_ref(),
+        Some(film.mean(crate::film::Layer::Multiple)),
     )
     .iter()
     .map(ToString::to_string)

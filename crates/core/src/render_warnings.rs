@@ -5,7 +5,33 @@
 
 use crate::medium::{MappingKind, SigmaReport};
 use crate::photon::PhotonStats;
-use crate::scene::{IntegratorParams, Method};
+use crate::scene::{IntegratorParams, MAX_PHOTONS, Method};
+
+/// Which key sets the photons of one map: what a warning tells to raise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PhotonKey {
+    /// `volume_photons`: the one map, or each iteration's when `photons_per_iteration` is 0.
+    VolumePhotons,
+    /// `photons_per_iteration`: each iteration's map of a progressive, beam or plane render.
+    PhotonsPerIteration,
+}
+
+impl PhotonKey {
+    fn of(integrator: &IntegratorParams) -> Self {
+        if integrator.iterates() && integrator.photons_per_iteration > 0 {
+            PhotonKey::PhotonsPerIteration
+        } else {
+            PhotonKey::VolumePhotons
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            PhotonKey::VolumePhotons => "volume_photons",
+            PhotonKey::PhotonsPerIteration => "photons_per_iteration",
+        }
+    }
+}
 
 /// Stored photons per `nused` below which a render is warned about. A k-NN estimate of
 /// `nused` photons from a map of N averages `nused/N` of the whole map: at the thesis's
@@ -28,14 +54,25 @@ pub const TRANSPARENT_FREE_PATH_PERCENT: f32 = 100.0;
 /// Something a render's settings cannot resolve.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum RenderWarning {
-    /// Fewer stored photons than [`PHOTONS_PER_NUSED`] × `nused`.
+    /// Fewer stored photons than [`PHOTONS_PER_NUSED`] × `nused` (only for an estimator
+    /// that gathers `nused` photons).
     FewPhotons {
         /// Photons stored in the map.
         stored: u64,
         /// Photons per estimate.
         nused: u32,
-        /// Photons emitted for the map (the scene's `volume_photons`).
+        /// Photons emitted for the map (one iteration's, for an iterating render).
         emitted: u64,
+        /// The key that sets `emitted`.
+        key: PhotonKey,
+    },
+    /// Photons were stored, yet the multiple-scattering layer is black everywhere: no
+    /// sample found a photon within reach (`maxdist` far below the photons' spacing).
+    BlackMultiple {
+        /// Photons stored in the map.
+        stored: u64,
+        /// The gather radius (or the planes' blur half-width).
+        maxdist: f32,
     },
     /// A nominal mean free path longer than the volume ([`TRANSPARENT_FREE_PATH_PERCENT`]):
     /// at `d_min` for the `thesis` and `mean-free-path` mappings, at `d_max` for the others.
@@ -55,6 +92,7 @@ impl RenderWarning {
     pub fn kind(&self) -> &'static str {
         match self {
             RenderWarning::FewPhotons { .. } => "fewer than 10 × nused photons stored",
+            RenderWarning::BlackMultiple { .. } => "a black multiple-scattering layer",
             RenderWarning::Transparent { .. } => "a mean free path longer than the volume",
         }
     }
@@ -67,16 +105,12 @@ impl std::fmt::Display for RenderWarning {
                 stored,
                 nused,
                 emitted,
-            } => {
-                // Photons stored per photon emitted stay about the same for more photons.
-                let needed = emitted.max(1) as f64 * (PHOTONS_PER_NUSED * nused as u64) as f64
-                    / stored.max(1) as f64;
-                write!(
-                    f,
-                    "{stored} photons stored for nused {nused}: fewer than {PHOTONS_PER_NUSED} × nused, so each estimate averages a large part of the whole map and the multiple-scattering layer is a smear, not the light's distribution; trace more photons (volume_photons ≥ {:.0}) or lower nused",
-                    needed.ceil()
-                )
-            }
+                key,
+            } => few_photons(f, stored, nused, emitted, key),
+            RenderWarning::BlackMultiple { stored, maxdist } => write!(
+                f,
+                "{stored} photons stored, but the multiple-scattering layer is black: no sample found a photon within maxdist = {maxdist:e} (far below the photons' spacing); raise maxdist (the thesis uses 0.1, 10 % of the longest axis)"
+            ),
             RenderWarning::Transparent {
                 at_d_min,
                 at_d_max,
@@ -111,6 +145,44 @@ impl std::fmt::Display for RenderWarning {
     }
 }
 
+/// The advice for too few photons: how many to trace, if a map may hold that many.
+fn few_photons(
+    f: &mut std::fmt::Formatter<'_>,
+    stored: u64,
+    nused: u32,
+    emitted: u64,
+    key: PhotonKey,
+) -> std::fmt::Result {
+    let key = key.name();
+    if stored == 0 {
+        return write!(
+            f,
+            "none of the {emitted} photons emitted for the map was stored (they missed the volume or crossed it without scattering): the multiple-scattering layer is black; raise {key}, or σt if the medium is nearly clear"
+        );
+    }
+    write!(
+        f,
+        "{stored} photons stored for nused {nused}: fewer than {PHOTONS_PER_NUSED} × nused, so each estimate averages a large part of the whole map and the multiple-scattering layer is a smear, not the light's distribution; "
+    )?;
+    // Photons stored per photon emitted stay about the same for more photons.
+    let needed =
+        (emitted as f64 * (PHOTONS_PER_NUSED * nused as u64) as f64 / stored as f64).ceil();
+    let lower = stored / PHOTONS_PER_NUSED;
+    if needed <= MAX_PHOTONS as f64 {
+        write!(f, "trace more photons ({key} ≥ {needed:.0}) or lower nused")
+    } else if lower >= 2 {
+        write!(
+            f,
+            "{key} ≥ {needed:.0} would be needed, more than the {MAX_PHOTONS} a map may hold: lower nused to {lower} or less"
+        )
+    } else {
+        write!(
+            f,
+            "no photon count up to {MAX_PHOTONS} stores enough for any nused: the medium scatters too little of the light; raise σt or {key}"
+        )
+    }
+}
+
 /// Whether a mapping sets σt for the tissue at `d_min` (so a clear `d_min` means a clear
 /// medium), rather than letting `d_min` be where a ramp begins.
 fn judged_at_d_min(mapping: MappingKind) -> bool {
@@ -127,21 +199,37 @@ fn percent(p: f32) -> String {
 }
 
 /// What a render with `integrator` settings on a medium described by `sigma` (mapped by
-/// `mapping`), with the photon map `photons` (when it traced one), cannot resolve.
+/// `mapping`), with the photon map `photons` (when it traced one; an iterating render's
+/// first map) and the mean of its multiple-scattering layer, cannot resolve.
 pub fn render_warnings(
     integrator: &IntegratorParams,
     mapping: MappingKind,
     sigma: &SigmaReport,
     photons: Option<&PhotonStats>,
+    mean_multiple: Option<f64>,
 ) -> Vec<RenderWarning> {
     let mut warnings = Vec::new();
-    if let Some(p) = photons.filter(|_| integrator.method == Method::Photon && integrator.multiple)
-        && p.stored < PHOTONS_PER_NUSED * integrator.nused as u64
+    let photons = photons.filter(|_| integrator.method == Method::Photon && integrator.multiple);
+    // Planes and a radius from maxdist never gather nused photons.
+    let gathers_nused = !integrator.ignored_keys().contains(&"nused");
+    if let Some(p) = photons
+        && (p.stored == 0
+            || (gathers_nused && p.stored < PHOTONS_PER_NUSED * integrator.nused as u64))
     {
         warnings.push(RenderWarning::FewPhotons {
             stored: p.stored,
             nused: integrator.nused,
-            emitted: integrator.volume_photons,
+            emitted: p.emitted,
+            key: PhotonKey::of(integrator),
+        });
+    }
+    if let Some(p) = photons
+        && p.stored > 0
+        && mean_multiple == Some(0.0)
+    {
+        warnings.push(RenderWarning::BlackMultiple {
+            stored: p.stored,
+            maxdist: integrator.maxdist,
         });
     }
     let at_d_max = sigma.mean_free_path_percent_at_dmax();
@@ -177,6 +265,7 @@ mod tests {
     fn stored(n: u64) -> PhotonStats {
         PhotonStats {
             stored: n,
+            emitted: 10_000,
             ..Default::default()
         }
     }
@@ -189,15 +278,29 @@ mod tests {
             ..Default::default()
         };
         assert!(
-            render_warnings(&i, MappingKind::Thesis, &sigma(80.0), Some(&stored(1500))).is_empty()
+            render_warnings(
+                &i,
+                MappingKind::Thesis,
+                &sigma(80.0),
+                Some(&stored(1500)),
+                None
+            )
+            .is_empty()
         );
-        let few = render_warnings(&i, MappingKind::Thesis, &sigma(80.0), Some(&stored(264)));
+        let few = render_warnings(
+            &i,
+            MappingKind::Thesis,
+            &sigma(80.0),
+            Some(&stored(264)),
+            None,
+        );
         assert_eq!(
             few,
             vec![RenderWarning::FewPhotons {
                 stored: 264,
                 nused: 150,
-                emitted: 10_000
+                emitted: 10_000,
+                key: PhotonKey::VolumePhotons,
             }]
         );
         // 10 000 emitted gave 264: 1500 stored need about 57 000.
@@ -216,13 +319,14 @@ mod tests {
                 &single,
                 MappingKind::Thesis,
                 &sigma(80.0),
-                Some(&stored(264))
+                Some(&stored(264)),
+                None
             )
             .is_empty()
         );
         // 1/σt(d_min) = 100 % of the extent is not yet transparent; 238 % is.
-        assert!(render_warnings(&i, MappingKind::Thesis, &sigma(1.0), None).is_empty());
-        let thin = render_warnings(&i, MappingKind::Thesis, &sigma(1.0 / 2.38), None);
+        assert!(render_warnings(&i, MappingKind::Thesis, &sigma(1.0), None, None).is_empty());
+        let thin = render_warnings(&i, MappingKind::Thesis, &sigma(1.0 / 2.38), None, None);
         assert!(
             matches!(thin[..], [RenderWarning::Transparent { at_d_min, at_d_max, .. }]
                 if (at_d_min - 238.0).abs() < 0.1 && (at_d_max - 59.5).abs() < 0.1),
@@ -246,10 +350,14 @@ mod tests {
             };
             SigmaReport::new(&c, 1.0, 400.0, 1.0)
         };
-        assert!(render_warnings(&i, MappingKind::Opacity, &ramp(100.0 / 805.0), None).is_empty());
-        assert!(!render_warnings(&i, MappingKind::Thesis, &ramp(100.0 / 805.0), None).is_empty());
+        assert!(
+            render_warnings(&i, MappingKind::Opacity, &ramp(100.0 / 805.0), None, None).is_empty()
+        );
+        assert!(
+            !render_warnings(&i, MappingKind::Thesis, &ramp(100.0 / 805.0), None, None).is_empty()
+        );
         for mapping in [MappingKind::Opacity, MappingKind::Explicit] {
-            let clear = render_warnings(&i, mapping, &ramp(100.0 / 805.0 / 500.0), None);
+            let clear = render_warnings(&i, mapping, &ramp(100.0 / 805.0 / 500.0), None, None);
             assert!(
                 matches!(clear[..], [RenderWarning::Transparent { at_d_max, .. }] if at_d_max > 100.0),
                 "{clear:?}"
@@ -258,5 +366,96 @@ mod tests {
             assert!(text.contains("densest material"), "{text}");
             assert!(!text.contains("sigma.t"), "{text}");
         }
+    }
+
+    /// Case 12 of the fourth reliability round: advice beyond the photon limit, for the
+    /// wrong key, about nused where it is not read, and silence over a black layer.
+    #[test]
+    fn warnings_name_the_right_key_within_the_limits() {
+        use crate::scene::MsEstimator;
+        let progressive = IntegratorParams {
+            estimator: MsEstimator::Progressive,
+            photons_per_iteration: 10,
+            volume_photons: 4_000_000,
+            ..Default::default()
+        };
+        let p = PhotonStats {
+            stored: 4,
+            emitted: 10,
+            ..Default::default()
+        };
+        let w = render_warnings(
+            &progressive,
+            MappingKind::Thesis,
+            &sigma(80.0),
+            Some(&p),
+            None,
+        );
+        let text = w[0].to_string();
+        assert!(text.contains("photons_per_iteration ≥ 3750"), "{text}");
+        let huge = PhotonStats {
+            stored: 100,
+            emitted: 40_000_000,
+            ..Default::default()
+        };
+        let w = render_warnings(
+            &IntegratorParams::default(),
+            MappingKind::Thesis,
+            &sigma(80.0),
+            Some(&huge),
+            None,
+        );
+        let text = w[0].to_string();
+        assert!(
+            text.contains("lower nused to 10 or less") && text.contains("more than the 100000000"),
+            "{text}"
+        );
+        let plane = IntegratorParams {
+            estimator: MsEstimator::Plane,
+            ..Default::default()
+        };
+        assert!(
+            render_warnings(
+                &plane,
+                MappingKind::Thesis,
+                &sigma(80.0),
+                Some(&stored(134)),
+                Some(0.1)
+            )
+            .is_empty(),
+            "planes do not read nused"
+        );
+        let black = render_warnings(
+            &IntegratorParams::default(),
+            MappingKind::Thesis,
+            &sigma(80.0),
+            Some(&stored(20_000)),
+            Some(0.0),
+        );
+        assert!(
+            matches!(
+                black[..],
+                [RenderWarning::BlackMultiple { stored: 20_000, .. }]
+            ),
+            "{black:?}"
+        );
+        assert!(black[0].to_string().contains("raise maxdist"));
+        let none = PhotonStats {
+            stored: 0,
+            emitted: 40_000,
+            ..Default::default()
+        };
+        let w = render_warnings(
+            &plane,
+            MappingKind::Thesis,
+            &sigma(80.0),
+            Some(&none),
+            Some(0.0),
+        );
+        assert!(
+            w[0].to_string().starts_with("none of the 40000 photons"),
+            "{}",
+            w[0]
+        );
     }
 }

@@ -182,7 +182,7 @@ pub(crate) struct RenderArgs {
     #[arg(short, long, default_value = "out")]
     pub(crate) output: PathBuf,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub(crate) threads: Option<usize>,
     /// Random seed (overrides the scene).
     #[arg(long)]
@@ -262,7 +262,7 @@ pub(crate) struct PlanArgs {
     pub(crate) jobs: usize,
     /// Worker threads per job, as `sweep run --threads` (default: all cores); the pilots
     /// render on as many.
-    #[arg(long)]
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub(crate) threads: Option<usize>,
     /// Count references the pool (`sweep run --reference-pool`) already holds as done, and
     /// those it holds at fewer samples per pixel as refined from there.
@@ -333,7 +333,7 @@ pub(crate) struct RunArgs {
     #[arg(long, default_value_t = 1)]
     pub(crate) jobs: usize,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub(crate) threads: Option<usize>,
     /// Accept a grid larger than the experiment's `max_cells` limit.
     #[arg(long, short)]
@@ -383,7 +383,7 @@ pub(crate) struct TuneArgs {
     #[arg(long, default_value_t = 1)]
     pub(crate) jobs: usize,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub(crate) threads: Option<usize>,
     /// Hide progress bars.
     #[arg(long, short)]
@@ -459,7 +459,7 @@ pub(crate) struct BenchArgs {
     #[arg(long)]
     pub(crate) quick: bool,
     /// Worker threads of the multi-threaded runs (default: all cores).
-    #[arg(long)]
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub(crate) threads: Option<usize>,
     /// Scene to benchmark instead of the headline frame.
     #[arg(long)]
@@ -495,7 +495,7 @@ pub(crate) struct BenchArgs {
     /// σt(d_min) (the scene's σ mapping must be the thesis's): with `--reference` the
     /// values compared (comma-separated, default 80,6); otherwise one value, set on the
     /// benchmarked scene.
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = parse_sigma_t)]
     pub(crate) sigma_t: Vec<f32>,
     /// With `--reference`: passes of each measured render (the first is timed apart, as
     /// it holds the weighted tracker's pilot).
@@ -510,7 +510,7 @@ pub(crate) struct BenchArgs {
     #[arg(long)]
     pub(crate) python: Option<PathBuf>,
     /// Samples per pixel of the peer comparison's renders (comma-separated).
-    #[arg(long, value_delimiter = ',', default_value = "4,16,64")]
+    #[arg(long, value_delimiter = ',', default_value = "4,16,64", value_parser = clap::value_parser!(u32).range(1..=65_536))]
     pub(crate) peer_spp: Vec<u32>,
     /// Seeds per setting of the peer comparison (the spread of their means is the noise).
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(2..=64))]
@@ -567,14 +567,18 @@ fn parse_timeout(s: &str) -> Result<std::time::Duration, String> {
 /// Largest `--threads` accepted: more workers than this only add scheduling overhead.
 const MAX_THREADS: usize = 1024;
 
-/// Validates `--threads` (1 to [`MAX_THREADS`]; `None` uses every core).
-pub(crate) fn threads(value: Option<usize>) -> Result<Option<usize>> {
-    match value {
-        Some(n) if !(1..=MAX_THREADS).contains(&n) => anyhow::bail!(
-            "--threads {n}: expected a number of worker threads in 1..={MAX_THREADS} (omit it to use every core)"
-        ),
-        other => Ok(other),
-    }
+/// Reads `--threads` for every verb alike: 1 to [`MAX_THREADS`] worker threads (omitting
+/// it uses every core; 0 is not a way to say so).
+fn parse_threads(text: &str) -> Result<usize, String> {
+    text.trim()
+        .parse::<usize>()
+        .ok()
+        .filter(|n| (1..=MAX_THREADS).contains(n))
+        .ok_or_else(|| {
+            format!(
+                "`{text}`: expected a number of worker threads in 1..={MAX_THREADS} (omit --threads to use every core)"
+            )
+        })
 }
 
 impl SlurmArgs {
@@ -646,24 +650,98 @@ fn backend(
         "--jobs {jobs}: expected at least 1 march group at a time"
     );
     Ok(match choice {
-        BackendChoice::Local => Box::new(Local {
-            jobs,
-            threads: self::threads(threads)?,
-        }),
+        BackendChoice::Local => Box::new(Local { jobs, threads }),
         BackendChoice::Slurm => Box::new(Slurm { options: slurm }),
     })
 }
 
+/// Reads a σt as a 64-bit number and refuses what a 32-bit float cannot hold: `1e39`
+/// would otherwise become infinity and be reported as `inf`, not as what was typed.
+fn parse_sigma_t(text: &str) -> Result<f32, String> {
+    let v: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{text}`: expected a number"))?;
+    if !(v.is_finite() && v > 0.0 && v <= f64::from(f32::MAX)) {
+        return Err(format!(
+            "`{text}`: expected a finite σt(d_min) > 0 and at most {:e} (a 32-bit float)",
+            f32::MAX
+        ));
+    }
+    Ok(v as f32)
+}
+
+/// A folder a verb will write into: refused before any work when it, or a folder on its
+/// way, is a file (the error came only after a whole bench, as "File exists").
+pub(crate) fn check_output_folder(flag: &str, path: &Path) -> Result<()> {
+    for ancestor in path.ancestors().filter(|a| !a.as_os_str().is_empty()) {
+        match std::fs::metadata(ancestor) {
+            Ok(m) if m.is_dir() => return Ok(()),
+            Ok(_) if ancestor == path => anyhow::bail!(
+                "{flag} {}: is a file; expected a folder (new or one this verb wrote)",
+                path.display()
+            ),
+            Ok(_) => anyhow::bail!(
+                "{flag} {}: {} is a file, so no folder can be made below it",
+                path.display(),
+                ancestor.display()
+            ),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => {
+                return Err(anyhow::Error::new(e).context(format!("{flag} {}", path.display())));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A file a verb will write: not a folder, and its folder can be made.
+pub(crate) fn check_output_file(flag: &str, path: &Path) -> Result<()> {
+    anyhow::ensure!(
+        !path.is_dir(),
+        "{flag} {}: is a folder; expected a file name",
+        path.display()
+    );
+    for ancestor in path
+        .ancestors()
+        .skip(1)
+        .filter(|a| !a.as_os_str().is_empty())
+    {
+        match std::fs::metadata(ancestor) {
+            Ok(m) if m.is_dir() => return Ok(()),
+            Ok(_) => anyhow::bail!(
+                "{flag} {}: {} is a file, so no folder can be made below it",
+                path.display(),
+                ancestor.display()
+            ),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => {
+                return Err(anyhow::Error::new(e).context(format!("{flag} {}", path.display())));
+            }
+        }
+    }
+    Ok(())
+}
+
 impl BenchArgs {
-    /// The validated options of `sweep bench`.
-    pub(crate) fn options(&self) -> BenchOptions {
+    /// The validated options of `sweep bench`: where it writes is checked before it works.
+    pub(crate) fn options(&self) -> Result<BenchOptions> {
+        if let Some(json) = &self.json {
+            check_output_file("--json", json)?;
+        }
+        if let Some(pool) = &self.reference_pool {
+            check_output_folder("--reference-pool", pool)?;
+        }
+        if let Some(dir) = &self.peer_dir {
+            check_output_folder("--peer-dir", dir)?;
+        }
         let mode = match (self.peer, self.estimators, self.reference) {
             (Some(Peer::Mitsuba), _, _) => BenchMode::Peer,
             (None, true, _) => BenchMode::Estimators,
             (None, false, true) => BenchMode::Reference,
             (None, false, false) => BenchMode::Configurations,
         };
-        BenchOptions {
+        Ok(BenchOptions {
             mode,
             quick: self.quick,
             threads: self.threads,
@@ -684,7 +762,7 @@ impl BenchArgs {
             },
             passes: self.passes,
             reference_pool: self.reference_pool.clone(),
-        }
+        })
     }
 }
 
@@ -707,6 +785,9 @@ impl BenchConfig {
 impl TuneArgs {
     /// The validated options of `sweep tune`.
     pub(crate) fn options(&self) -> Result<TuneOptions> {
+        if let Some(output) = &self.output {
+            check_output_folder("--output", output)?;
+        }
         let mode = match (&self.cells, self.dry_run) {
             (Some(_), true) => anyhow::bail!("--cells and --dry-run: expected at most one"),
             (Some(c), false) => {

@@ -10,6 +10,8 @@ mod claims;
 mod cli;
 mod commands;
 mod cost;
+#[cfg(test)]
+mod fuzz;
 mod plan;
 mod progress;
 mod render;

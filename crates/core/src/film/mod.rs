@@ -238,6 +238,15 @@ impl Film {
     pub fn is_finite(&self) -> bool {
         self.layers.iter().all(|l| l.iter().all(|v| v.is_finite()))
     }
+
+    /// Each layer that holds infinite or NaN pixels, with how many.
+    pub fn non_finite_pixels(&self) -> Vec<(Layer, usize)> {
+        Layer::ALL
+            .iter()
+            .map(|&l| (l, self.layer(l).iter().filter(|v| !v.is_finite()).count()))
+            .filter(|(_, n)| *n > 0)
+            .collect()
+    }
 }
 
 /// Root-mean-square difference over all RGB components of two equally sized images (the

@@ -129,14 +129,24 @@ pub struct Incident {
     pub radiance: Vec3,
 }
 
+/// The largest radiant intensity a light may have (W/sr). Its power is summed over
+/// photons, multiplied by the phase function and σs and summed again over a pixel's
+/// samples in 32-bit floats: from about 10³⁴ on that overflows to infinity (a
+/// `key_intensity` of 3·10³⁸ gave an image of infinities). The thesis's key is 40–100.
+pub const MAX_INTENSITY: f32 = 1e20;
+
 fn validate_intensity(i: Vec3) -> Result<()> {
-    if i.is_finite() && i.min_element() >= 0.0 && i.max_element() > 0.0 {
+    if i.is_finite()
+        && i.min_element() >= 0.0
+        && i.max_element() > 0.0
+        && i.max_element() <= MAX_INTENSITY
+    {
         Ok(())
     } else {
         Err(Error::parameter(
             "intensity",
             format!("{:?}", i.to_array()),
-            "finite values >= 0, not all 0 (W/sr)",
+            "finite values >= 0, not all 0, at most 1e20 (W/sr)",
         ))
     }
 }
@@ -454,6 +464,13 @@ pub fn three_point(
     params: &ThreePointParams,
 ) -> Result<Vec<Light>> {
     crate::error::check_positive("key_intensity", params.key_intensity as f64)?;
+    if params.key_intensity > MAX_INTENSITY {
+        return Err(Error::parameter(
+            "key_intensity",
+            params.key_intensity,
+            "at most 1e20 W/sr (more overflows 32-bit floats in the image)",
+        ));
+    }
     crate::error::check_range("fill_ratio", params.fill_ratio as f64, 0.0, 10.0)?;
     crate::error::check_range("rim_ratio", params.rim_ratio as f64, 0.0, 10.0)?;
     crate::error::check_range("distance_scale", params.distance_scale as f64, 0.1, 100.0)?;

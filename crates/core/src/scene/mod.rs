@@ -59,8 +59,8 @@ pub use params::{
 pub use pbrt::{PbrtImport, Unmapped, import_pbrt};
 pub use settings::{
     DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW, Estimate, EyeRays, FilmParams,
-    InitialRadius, IntegratorParams, Method, MsEstimator, Quadrature, RadiusRule, ShadowEstimator,
-    Tracker,
+    InitialRadius, IntegratorParams, MAX_PHOTONS, Method, MsEstimator, Quadrature, RadiusRule,
+    ShadowEstimator, Tracker,
 };
 
 use crate::error::Result;

@@ -154,12 +154,36 @@ pub struct SceneParams {
 impl SceneParams {
     /// Parses scene TOML; unknown keys and wrong types are located by line and column.
     pub fn from_toml(src: &str, file: &Path) -> Result<Self> {
+        if let Ok(table) = src.parse::<toml::Table>()
+            && let Some((key, value)) = beyond_f32(&toml::Value::Table(table), "")
+        {
+            let (line, column) = super::diagnostics::locate(src, &key).unwrap_or((1, 1));
+            return Err(Error::Scene {
+                file: file.to_path_buf(),
+                line,
+                column,
+                message: format!(
+                    "`{key}` = {value:e} is beyond what a 32-bit float holds (±{:e}): it would become infinity",
+                    f32::MAX
+                ),
+            });
+        }
         toml::from_str(src).map_err(|e| toml_error(&e, src, file))
     }
 
     /// Deserialises from an already-parsed table (e.g. a base scene with sweep overrides);
     /// errors name the key path but have no position.
     pub fn from_table(table: toml::Table) -> Result<Self> {
+        if let Some((key, value)) = beyond_f32(&toml::Value::Table(table.clone()), "") {
+            return Err(Error::Parameter {
+                key,
+                value: format!("{value:e}"),
+                expected: format!(
+                    "a number a 32-bit float holds (at most ±{:e}); it would become infinity",
+                    f32::MAX
+                ),
+            });
+        }
         let text = toml::to_string(&table).map_err(|e| Error::Parameter {
             key: "scene".into(),
             value: String::new(),
@@ -528,4 +552,26 @@ pub fn build_medium(params: &SceneParams, volume: &Volume, base: &Path) -> Resul
         Error::Parameter { ref key, .. } if key == "brick_size" => e.within("volume"),
         other => other,
     })
+}
+/// The first number of a scene (its dotted key and value) that no 32-bit float holds: the
+/// scene's floats are `f32`, and serde turns `t = 1e39` into infinity without a word.
+fn beyond_f32(value: &toml::Value, key: &str) -> Option<(String, f64)> {
+    let join = |k: &str| {
+        if key.is_empty() {
+            k.to_string()
+        } else {
+            format!("{key}.{k}")
+        }
+    };
+    match value {
+        toml::Value::Float(f) if f.is_finite() && f.abs() > f64::from(f32::MAX) => {
+            Some((key.to_string(), *f))
+        }
+        toml::Value::Table(t) => t.iter().find_map(|(k, v)| beyond_f32(v, &join(k))),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| beyond_f32(v, &format!("{key}[{i}]"))),
+        _ => None,
+    }
 }

@@ -68,6 +68,9 @@ pub const DEFAULT_SHADOW_TOLERANCE: f32 = 0.025;
 /// counts a study can afford.
 pub const DEFAULT_ALPHA: f32 = 0.3;
 
+/// The most photons a map may be traced with (`volume_photons`, `photons_per_iteration`).
+pub const MAX_PHOTONS: u64 = 100_000_000;
+
 /// How shadow-ray transmittance to a light is estimated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -366,6 +369,97 @@ impl IntegratorParams {
         self.method == Method::Photon && self.multiple && self.estimator != MsEstimator::Points
     }
 
+    /// The `[integrator]` keys a photon-mapping render with these settings never reads:
+    /// whatever their values, the image is the same (tested render by render). Only the
+    /// structure of the settings decides (estimator, `multiple`, where the first radius
+    /// and the photon count come from), never a value that happens to make a key moot.
+    /// The path tracer's keys are left to its own address.
+    pub fn ignored_keys(&self) -> Vec<&'static str> {
+        if self.method != Method::Photon {
+            return Vec::new();
+        }
+        // The path tracer's settings: a photon render never runs it.
+        let mut keys = vec!["tracker", "reference_spp"];
+        // The keys only an iterating estimator reads.
+        const ITERATION: [&str; 6] = [
+            "alpha",
+            "iterations",
+            "photons_per_iteration",
+            "time_budget",
+            "radius",
+            "eye_rays",
+        ];
+        if !self.multiple {
+            keys.extend([
+                "volume_photons",
+                "nused",
+                "maxdist",
+                "free_path",
+                "estimate",
+                "ms_cache",
+                "estimator",
+                "initial_radius",
+                "target_rmse",
+            ]);
+            keys.extend(ITERATION);
+            return keys;
+        }
+        let photons_per_iteration = self.photons_per_iteration > 0;
+        let radius_from_maxdist = self.initial_radius == InitialRadius::Maxdist;
+        match self.estimator {
+            MsEstimator::Points => {
+                keys.extend(ITERATION);
+                keys.push("initial_radius");
+            }
+            MsEstimator::Progressive | MsEstimator::Beam => {
+                if photons_per_iteration {
+                    keys.push("volume_photons");
+                }
+                if radius_from_maxdist {
+                    keys.extend(["nused", "radius"]);
+                }
+            }
+            MsEstimator::Plane => {
+                keys.extend(["nused", "initial_radius", "radius", "estimate"]);
+                if photons_per_iteration {
+                    keys.push("volume_photons");
+                }
+            }
+        }
+        keys
+    }
+
+    /// These settings with every key they ignore ([`IntegratorParams::ignored_keys`]) at
+    /// its default: two settings that differ only there render the same image, and this
+    /// is what a content address is taken over.
+    pub fn with_ignored_at_default(&self) -> IntegratorParams {
+        let d = IntegratorParams::default();
+        let mut s = self.clone();
+        for key in self.ignored_keys() {
+            match key {
+                "tracker" => s.tracker = d.tracker,
+                "reference_spp" => s.reference_spp = d.reference_spp,
+                "volume_photons" => s.volume_photons = d.volume_photons,
+                "nused" => s.nused = d.nused,
+                "maxdist" => s.maxdist = d.maxdist,
+                "free_path" => s.free_path = d.free_path,
+                "estimate" => s.estimate = d.estimate,
+                "ms_cache" => s.ms_cache = d.ms_cache,
+                "estimator" => s.estimator = d.estimator,
+                "initial_radius" => s.initial_radius = d.initial_radius,
+                "alpha" => s.alpha = d.alpha,
+                "iterations" => s.iterations = d.iterations,
+                "photons_per_iteration" => s.photons_per_iteration = d.photons_per_iteration,
+                "time_budget" => s.time_budget = d.time_budget,
+                "target_rmse" => s.target_rmse = d.target_rmse,
+                "radius" => s.radius = d.radius,
+                "eye_rays" => s.eye_rays = d.eye_rays,
+                other => unreachable!("ignored_keys names `{other}`, which is not reset"),
+            }
+        }
+        s
+    }
+
     /// What the beam estimate cannot combine with.
     fn validate_beam(&self) -> Result<()> {
         if matches!(self.estimate, Estimate::Albedo | Estimate::Thesis) {
@@ -403,7 +497,7 @@ impl IntegratorParams {
 
     /// The photon map and its gathers: `volume_photons`, `nused`, `maxdist`.
     fn validate_photons(&self) -> Result<()> {
-        if self.volume_photons > 100_000_000 {
+        if self.volume_photons > MAX_PHOTONS {
             return Err(Error::parameter(
                 "volume_photons",
                 self.volume_photons,
@@ -487,7 +581,7 @@ impl IntegratorParams {
                 "an integer in [1, 100000]",
             ));
         }
-        if self.photons_per_iteration > 100_000_000 {
+        if self.photons_per_iteration > MAX_PHOTONS {
             return Err(Error::parameter(
                 "photons_per_iteration",
                 self.photons_per_iteration,

@@ -413,10 +413,14 @@ fn sbatch(args: &[String], script: &Path) -> Result<String> {
 }
 
 fn read_jobs(out: &OutputDir) -> JobsRecord {
-    std::fs::read_to_string(out.root().join("slurm").join("jobs.json"))
-        .ok()
-        .and_then(|t| serde_json::from_str(&t).ok())
-        .unwrap_or_default()
+    volphot::read_text_capped(
+        &out.root().join("slurm").join("jobs.json"),
+        volphot::TEXT_INPUT_CAP,
+        "Slurm jobs record",
+    )
+    .ok()
+    .and_then(|t| serde_json::from_str(&t).ok())
+    .unwrap_or_default()
 }
 
 /// Job ids still known to `squeue` among `ids`.
@@ -470,7 +474,7 @@ pub(crate) fn print_jobs(out: &OutputDir) {
 impl Backend for Slurm {
     fn execute(&self, run: &Run<'_>) -> Result<Outcome> {
         let (exp, out) = (run.experiment, &run.output);
-        check_owner(out, &exp.name)?;
+        check_owner(out, exp)?;
         std::fs::create_dir_all(out.root().join("slurm").join("logs"))?;
         let plan = exp.plan_record(run.cells, run.hashes, run.quality)?;
         write_plan(out, &plan, &exp.source.text)?;

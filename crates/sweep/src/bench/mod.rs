@@ -221,22 +221,38 @@ fn with_sigma_t(params: &mut volphot::SceneParams, t: f32) -> Result<()> {
 }
 
 /// The headline scene: the foot preset, or the foot phantom at 256² with `--quick`.
-fn headline(args: &BenchOptions) -> PathBuf {
+fn headline(args: &BenchOptions) -> Result<PathBuf> {
     if let Some(s) = &args.scene {
-        return s.clone();
+        return Ok(s.clone());
     }
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/scenes");
-    let local = Path::new("experiments/scenes");
-    let base = if local.is_dir() {
-        local.to_path_buf()
-    } else {
-        dir
-    };
-    base.join(if args.quick {
+    default_scene(if args.quick {
         "phantom-foot.toml"
     } else {
         "foot.toml"
     })
+}
+
+/// A bench's default scene `experiments/scenes/NAME`: in the working folder (a checkout),
+/// else in the checkout that holds this binary (`target/release/sweep`), found through the
+/// binary's own location — never through the folder it was built in, which a copied binary
+/// does not have.
+pub(super) fn default_scene(name: &str) -> Result<PathBuf> {
+    let relative = Path::new("experiments/scenes").join(name);
+    if relative.is_file() {
+        return Ok(relative);
+    }
+    let exe = std::env::current_exe().ok();
+    exe.iter()
+        .flat_map(|e| e.ancestors().skip(1))
+        .map(|a| a.join(&relative))
+        .find(|p| p.is_file())
+        .with_context(|| {
+            format!(
+                "the default scene {} is neither in the working folder nor in a checkout that holds this binary ({}); run from the volphot checkout or name a scene with --scene",
+                relative.display(),
+                exe.map_or("?".into(), |e| e.display().to_string())
+            )
+        })
 }
 
 /// The integrator of a configuration, from the scene's own (thinning off unless the
@@ -291,7 +307,7 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     if args.mode == BenchMode::Reference {
         return reference::run(args);
     }
-    let scene_path = headline(args);
+    let scene_path = headline(args)?;
     let (mut params, _) = crate::plan::load_scene(&scene_path)
         .with_context(|| format!("benchmark scene {}", scene_path.display()))?;
     if args.quick {

@@ -137,6 +137,11 @@ pub(crate) fn run(
     let pool = crate::render::thread_pool(args.threads)?;
     let temporary = std::env::temp_dir().join(format!("volphot-peer-{}", std::process::id()));
     let dir = args.peer_dir.clone().unwrap_or_else(|| temporary.clone());
+    // The temporary folder goes however the comparison ends (an error in Mitsuba too).
+    let _cleanup = args
+        .peer_dir
+        .is_none()
+        .then(|| RemoveOnDrop(temporary.clone()));
     let base = scene_path.parent().unwrap_or(Path::new("."));
     let scene = pool.install(|| Scene::from_params(params, base, &SearchPath::from_env()))?;
     let name = scene_path
@@ -184,14 +189,20 @@ pub(crate) fn run(
             rows,
         })
     })?;
-    if args.peer_dir.is_none() {
-        let _ = std::fs::remove_dir_all(&temporary);
-    }
     print_report(&report);
     if let Some(path) = &args.json {
         volphot::write_atomic(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Removes a temporary folder when dropped.
+struct RemoveOnDrop(PathBuf);
+
+impl Drop for RemoveOnDrop {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 fn join(values: &[u32]) -> String {
@@ -298,7 +309,7 @@ fn run_mitsuba(
         .clone()
         .or_else(|| std::env::var_os("VOLPHOT_MITSUBA_PYTHON").map(PathBuf::from))
         .unwrap_or_else(|| PathBuf::from("python3"));
-    let script = peer_script()?;
+    let script = peer_script(out)?;
     let output = Command::new(&python)
         .arg(&script)
         .arg(xml)
@@ -336,16 +347,15 @@ fn run_mitsuba(
         .collect()
 }
 
-/// `scripts/peer_mitsuba.py` of this checkout.
-fn peer_script() -> Result<PathBuf> {
-    let candidates = [
-        PathBuf::from("scripts/peer_mitsuba.py"),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scripts/peer_mitsuba.py"),
-    ];
-    candidates
-        .into_iter()
-        .find(|p| p.is_file())
-        .context("scripts/peer_mitsuba.py not found (run from the volphot checkout)")
+/// The Mitsuba driver (`scripts/peer_mitsuba.py`), built into the binary and written
+/// beside the exported scene: a `sweep` copied to another machine runs the script of its
+/// own version, never one looked up through the folder it was built in.
+const PEER_SCRIPT: &str = include_str!("../../../../scripts/peer_mitsuba.py");
+
+fn peer_script(folder: &Path) -> Result<PathBuf> {
+    let path = folder.join("peer_mitsuba.py");
+    volphot::write_atomic(&path, PEER_SCRIPT.as_bytes())?;
+    Ok(path)
 }
 
 /// A row from several seeds' images and CPU-seconds.

@@ -114,7 +114,7 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     );
     let threads = crate::render::thread_pool(args.threads)?;
     let mut cases = Vec::new();
-    for scene_path in scenes(args) {
+    for scene_path in scenes(args)? {
         let (params, _) = crate::plan::load_scene(&scene_path)
             .with_context(|| format!("benchmark scene {}", scene_path.display()))?;
         for &t in &args.sigma_t {
@@ -139,19 +139,13 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
 }
 
 /// The scenes: `--scene`, or the headline frame and the phantom head.
-fn scenes(args: &BenchOptions) -> Vec<PathBuf> {
+fn scenes(args: &BenchOptions) -> Result<Vec<PathBuf>> {
     if let Some(s) = &args.scene {
-        return vec![s.clone()];
+        return Ok(vec![s.clone()]);
     }
-    let local = Path::new("experiments/scenes");
-    let base = if local.is_dir() {
-        local.to_path_buf()
-    } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/scenes")
-    };
     ["foot.toml", "phantom-head.toml"]
         .iter()
-        .map(|s| base.join(s))
+        .map(|s| super::default_scene(s))
         .collect()
 }
 

@@ -21,6 +21,8 @@
 mod cited;
 mod document;
 mod expr;
+#[cfg(test)]
+mod fuzz;
 mod source;
 mod uncited;
 mod update;

@@ -9,5 +9,5 @@ use crate::cli::BenchArgs;
 
 /// Runs the benchmark.
 pub(crate) fn run(args: &BenchArgs) -> Result<ExitCode> {
-    crate::bench::run(&args.options())
+    crate::bench::run(&args.options()?)
 }

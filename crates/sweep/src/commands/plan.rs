@@ -116,13 +116,16 @@ pub(crate) fn run(args: &PlanArgs) -> Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let (cells, hashes) = exp.plan_with_hashes(quality, true)?;
+    for warning in exp.ignored_settings(quality, &cells)? {
+        eprintln!("warning: {}: {warning}", args.experiment.display());
+    }
     let pool = args.reference_pool.clone().map(ReferencePool::new);
     let method = if args.no_pilot {
         CostMethod::Model
     } else {
         CostMethod::Pilot
     };
-    let threads = crate::cli::threads(args.threads)?;
+    let threads = args.threads;
     let estimate = crate::render::thread_pool(threads)?
         .install(|| crate::cost::estimate(&exp, &cells, pool.as_ref(), method))?;
     print_summary(&exp, quality, &cells, &estimate);

@@ -12,14 +12,17 @@ use crate::cli::{IntegratorChoice, RenderArgs};
 
 /// Renders the scene and writes its files into the output folder.
 pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode> {
+    crate::cli::check_output_folder("--output", &args.output)?;
     let params = scene_params(args)?;
     let output = render_scene(args, &params)?;
-    anyhow::ensure!(output.film.is_finite(), "render produced non-finite values");
     let stem = args
         .scene
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "render".into());
+    if !output.film.is_finite() {
+        return Err(crate::render::non_finite(&stem, &output.film, &params));
+    }
     write_outputs(&args.output, &stem, &output, params.film.exposure)?;
     for warning in &output.record.warnings {
         eprintln!("warning: {stem}: {warning}");

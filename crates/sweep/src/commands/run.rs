@@ -22,11 +22,18 @@ pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
         args.experiment.display(),
         args.experiment.display()
     );
-    let (cells, hashes) = exp.plan_with_hashes(quality, args.yes)?;
     let output = args
         .output
         .clone()
         .unwrap_or_else(|| crate::plan::default_output(&exp, quality));
+    crate::cli::check_output_folder("--output", &output)?;
+    if let Some(pool) = &args.reference_pool {
+        crate::cli::check_output_folder("--reference-pool", pool)?;
+    }
+    let (cells, hashes) = exp.plan_with_hashes(quality, args.yes)?;
+    for warning in exp.ignored_settings(quality, &cells)? {
+        eprintln!("warning: {}: {warning}", args.experiment.display());
+    }
     let reference_pool = args
         .reference_pool
         .as_deref()

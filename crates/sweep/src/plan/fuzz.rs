@@ -8,17 +8,14 @@
 //! runs 100 000.
 
 use std::path::Path;
-use std::sync::mpsc;
-use std::time::Duration;
 
 use proptest::prelude::*;
-use proptest::test_runner::{Config, TestCaseError, TestRunner};
 
 use super::{Experiment, Quality};
+use crate::fuzz::run;
 
 const CI_CASES: u32 = 1500;
 const LONG_CASES: u32 = 100_000;
-const BOUND: Duration = Duration::from_secs(20);
 
 fn value() -> impl Strategy<Value = String> {
     prop_oneof![
@@ -144,65 +141,6 @@ fn fuzz(cases: u32) {
     );
 }
 
-/// Runs `check` on each generated case in a thread of its own, failing a case that
-/// panics, hangs past [`BOUND`] or is rejected without pointing into its file, and a run
-/// whose cases were all accepted or all rejected; `check` says whether a case was accepted.
-fn run<S, F>(name: &str, dir: &Path, cases: u32, strategy: S, check: F)
-where
-    S: Strategy<Value = String>,
-    F: Fn(&Path, String) -> Result<bool, String> + Send + Sync + Clone + 'static,
-{
-    let mut runner = TestRunner::new(Config {
-        cases,
-        failure_persistence: None,
-        ..Config::default()
-    });
-    let counts = std::sync::Mutex::new((0u32, 0u32));
-    let result = runner.run(&strategy, |text| {
-        let (tx, rx) = mpsc::channel();
-        let case_dir = dir.to_path_buf();
-        let shown = text.clone();
-        let check = check.clone();
-        std::thread::spawn(move || {
-            let r =
-                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| check(&case_dir, text)));
-            let _ = tx.send(r);
-        });
-        match rx.recv_timeout(BOUND) {
-            Err(_) => Err(TestCaseError::fail(format!("a hang on\n{shown}"))),
-            Ok(Err(_)) => Err(TestCaseError::fail(format!("panicked on\n{shown}"))),
-            Ok(Ok(Err(m))) => Err(TestCaseError::fail(m)),
-            Ok(Ok(Ok(ok))) => {
-                let mut c = counts.lock().unwrap();
-                if ok {
-                    c.0 += 1
-                } else {
-                    c.1 += 1
-                }
-                Ok(())
-            }
-        }
-    });
-    if let Err(e) = result {
-        panic!("{e}");
-    }
-    let (accepted, rejected) = counts.into_inner().unwrap();
-    use std::io::Write as _;
-    let _ = writeln!(
-        std::io::stderr().lock(),
-        "fuzz {name}: {cases} cases, {accepted} accepted, {rejected} rejected with a located error, 0 panics, 0 hangs"
-    );
-    // A generator that drifted to one side of the parser no longer tests the other.
-    assert!(
-        accepted > 0,
-        "fuzz {name}: the parser accepted none of {cases} generated files; the generator makes no valid file any more"
-    );
-    assert!(
-        rejected > 0,
-        "fuzz {name}: the parser rejected none of {cases} generated files; the generator makes no invalid file any more"
-    );
-}
-
 #[test]
 fn fuzz_experiment_files() {
     fuzz(CI_CASES);
@@ -212,32 +150,4 @@ fn fuzz_experiment_files() {
 #[ignore = "long run: cargo test --release -p volphot-sweep fuzz -- --ignored"]
 fn fuzz_experiment_files_long() {
     fuzz(LONG_CASES);
-}
-
-/// The harness itself: a generator that drifted to making only rejected files (or only
-/// accepted ones) tests one side of the parser, and must fail the test that uses it.
-#[test]
-#[should_panic(expected = "accepted none")]
-fn a_generator_of_only_rejected_files_fails_its_test() {
-    let dir = tempfile::tempdir().unwrap();
-    run(
-        "only_rejected",
-        dir.path(),
-        8,
-        Just(String::new()),
-        |_, _| Ok(false),
-    );
-}
-
-#[test]
-#[should_panic(expected = "rejected none")]
-fn a_generator_of_only_accepted_files_fails_its_test() {
-    let dir = tempfile::tempdir().unwrap();
-    run(
-        "only_accepted",
-        dir.path(),
-        8,
-        Just(String::new()),
-        |_, _| Ok(true),
-    );
 }

@@ -198,6 +198,12 @@ impl Experiment {
         checks::reference(&source, file.reference.as_ref())?;
         checks::compare(&axis_names, &file.compare, file.reference.is_some())?;
         checks::figures(&axis_names, &file.plots, &file.sheets)?;
+        if file.report.explorer_max_side == Some(0) {
+            return Err(source.error(
+                "report.explorer_max_side",
+                "`report.explorer_max_side` = 0: expected at least 1 pixel; leave it out for the full resolution",
+            ));
+        }
         let tune = file
             .tune
             .as_ref()
@@ -296,12 +302,83 @@ impl Experiment {
             self.path().display()
         );
         let cells = self.plan(quality)?;
+        self.refuse_ignored_axes(quality, &cells)?;
         let hashes = cells
             .iter()
             .map(|c| cell_hash(&c.params, &c.base_dir))
             .collect::<Result<Vec<_>>>()?;
         self.distinct_scenes(quality, &cells, &hashes)?;
         Ok((cells, hashes))
+    }
+
+    /// The `[integrator]` keys of `key` (`integrator.eye_rays` → `eye_rays`) that every cell
+    /// ignores ([`volphot::IntegratorParams::ignored_keys`]).
+    fn ignored_by_every_cell(cells: &[CellSpec], key: &str) -> bool {
+        key.strip_prefix("integrator.").is_some_and(|k| {
+            !cells.is_empty()
+                && cells
+                    .iter()
+                    .all(|c| c.params.integrator.ignored_keys().contains(&k))
+        })
+    }
+
+    /// Why the cells ignore a key: the first cell's estimator, or no multiple scattering.
+    fn why_ignored(cells: &[CellSpec]) -> String {
+        let i = &cells[0].params.integrator;
+        if !i.multiple {
+            "with multiple = false".to_string()
+        } else {
+            format!(
+                "with estimator = {:?}",
+                format!("{:?}", i.estimator).to_lowercase()
+            )
+        }
+    }
+
+    /// An axis that no cell reads is an error: its values would render one image under as
+    /// many addresses, and the report would read timing noise as its effect.
+    fn refuse_ignored_axes(&self, quality: Quality, cells: &[CellSpec]) -> Result<()> {
+        // A search's base grid is all point estimates; its proposals set the rest.
+        if self.tune.is_some() || cells.is_empty() {
+            return Ok(());
+        }
+        for key in self.axis_keys(quality) {
+            if Self::ignored_by_every_cell(cells, &key) {
+                return Err(self.source.error(
+                    &key,
+                    format!(
+                        "`{key}` is an axis, but no cell reads it ({}): its values would render the same image under as many addresses; sweep it where it is read (progressive, beam or plane estimators, multiple = true) or drop the axis",
+                        Self::why_ignored(cells)
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The `[set]` keys no cell reads, as warnings: they change nothing.
+    pub(crate) fn ignored_settings(
+        &self,
+        quality: Quality,
+        cells: &[CellSpec],
+    ) -> Result<Vec<String>> {
+        if self.tune.is_some() || cells.is_empty() {
+            return Ok(Vec::new());
+        }
+        let mut set = self.set.clone();
+        if let Some(preset) = self.preset(quality) {
+            keys::flatten_set(&preset.set, "", &mut set);
+        }
+        Ok(set
+            .iter()
+            .filter(|(key, _)| Self::ignored_by_every_cell(cells, key))
+            .map(|(key, _)| {
+                format!(
+                    "`{key}` is set, but no cell reads it ({}): it changes nothing",
+                    Self::why_ignored(cells)
+                )
+            })
+            .collect())
     }
 
     /// The record of a plan (`plan.json`): cells, hashes, references and march keys.

@@ -242,11 +242,13 @@ fn write_cell(
     out: &OutputDir,
 ) -> Result<Vec<volphot::RenderWarning>> {
     let film = &result.film;
-    anyhow::ensure!(
-        film.is_finite(),
-        "cell {} rendered non-finite pixels",
-        job.spec.index
-    );
+    if !film.is_finite() {
+        return Err(super::non_finite(
+            &format!("cell {}", job.spec.index),
+            film,
+            &job.spec.params,
+        ));
+    }
     let p = &job.spec.params;
     let analysis = analyse_cell(film, p);
     timings.metrics = analysis.seconds;
@@ -268,6 +270,7 @@ fn write_cell(
         p.sigma.mapping,
         &provenance.sigma,
         result.photons.as_ref(),
+        Some(film.mean(Layer::Multiple)),
     );
     let record = CellRecord {
         index: job.spec.index,

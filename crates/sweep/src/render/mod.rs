@@ -527,12 +527,57 @@ fn record_failures(
 }
 
 /// Builds a rayon pool with `threads` workers (all cores when `None`).
+/// The error for an image with infinite or NaN pixels: which layers, how many, and the
+/// scene's values most likely to have overflowed (its brightest light, its σt).
+pub(crate) fn non_finite(
+    what: &str,
+    film: &volphot::Film,
+    params: &volphot::SceneParams,
+) -> anyhow::Error {
+    let layers: Vec<String> = film
+        .non_finite_pixels()
+        .iter()
+        .map(|(l, n)| format!("{} layer {n} pixels", l.name()))
+        .collect();
+    let mut lights: Vec<(String, f32)> = params
+        .lights
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            (
+                format!("lights[{i}].intensity"),
+                l.intensity.rgb().max_element(),
+            )
+        })
+        .collect();
+    if let Some(t) = &params.three_point {
+        lights.push(("three_point.key_intensity".into(), t.key_intensity));
+    }
+    let brightest = lights
+        .iter()
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(String::new(), |(k, v)| {
+            format!("; the brightest light is `{k}` = {v:e}")
+        });
+    anyhow::anyhow!(
+        "{what} rendered infinite or NaN values ({}): a value overflowed 32-bit floats{brightest}, σt(d_min) `sigma.t` = {}; lower the light's intensity or σt",
+        layers.join(", "),
+        params.sigma.t.map_or("unset".into(), |t| format!("{t:e}"))
+    )
+}
+
 pub(crate) fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {
         builder = builder.num_threads(n);
     }
-    Ok(builder.build()?)
+    // The pool's error carries the system's error as its source too: shown once.
+    builder.build().map_err(|e| {
+        anyhow::anyhow!(
+            "cannot start {} worker threads: {e}; ask for fewer with --threads",
+            threads.map_or("the default number of".to_string(), |n| n.to_string())
+        )
+    })
 }
 
 #[cfg(test)]

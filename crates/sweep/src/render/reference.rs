@@ -125,11 +125,13 @@ fn render(
     };
     bar.finish_and_clear();
     multi.remove(&bar);
-    anyhow::ensure!(
-        film.is_finite(),
-        "reference {} has non-finite pixels",
-        job.key
-    );
+    if !film.is_finite() {
+        return Err(super::non_finite(
+            &format!("reference {}", job.key),
+            &film,
+            scene.params(),
+        ));
+    }
     Ok(Made {
         film,
         passes,

@@ -79,7 +79,7 @@ pub(crate) fn collect(out: &OutputDir) -> Result<(PlanRecord, Vec<Collected>)> {
             }
         }
         let failure = if record.is_none() {
-            std::fs::read_to_string(out.failure(&p.hash)).ok()
+            volphot::read_text_capped(&out.failure(&p.hash), 1 << 20, "failure note").ok()
         } else {
             None
         };

@@ -45,7 +45,8 @@ fn plot_points(plot: &PlotFigure) -> String {
 /// An image of the report's folder as a `<figure>` with the PNG inlined; a plot gets its
 /// clickable points.
 fn figure(root: &Path, src: &str, alt: &str, plots: &[(String, &PlotFigure)]) -> Result<String> {
-    let bytes = std::fs::read(root.join(src)).with_context(|| format!("embedding {src}"))?;
+    let bytes = volphot::read_bytes_capped(&root.join(src), 256 << 20, "figure (PNG)")
+        .with_context(|| format!("embedding {src}"))?;
     let data = base64::engine::general_purpose::STANDARD.encode(bytes);
     let img = format!(
         "<img alt=\"{}\" src=\"data:image/png;base64,{data}\">",
@@ -106,7 +107,9 @@ pub(crate) fn html(
         .iter()
         .map(|p| (super::markdown::rel(root, &p.path), p))
         .collect();
-    let events: Vec<Event> = Parser::new_ext(markdown, Options::ENABLE_TABLES).collect();
+    // No raw HTML and no unsafe link reaches the page from the Markdown; the page's own
+    // markup (figures, the explorer) is added below.
+    let events: Vec<Event> = escape::safe_events(Parser::new_ext(markdown, Options::ENABLE_TABLES));
     let explorer_at = explorer_position(&events);
     let mut out: Vec<Event> = Vec::with_capacity(events.len());
     let (mut explorer_placed, mut in_section_title, mut section) = (false, false, String::new());

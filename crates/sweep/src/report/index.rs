@@ -62,7 +62,12 @@ fn thumbnail(dir: &Path, folder: &str) -> Option<String> {
             .filter(|n| n.starts_with(prefix) && n.ends_with(".png"))
             .collect();
         names.sort();
-        names.first().map(|n| format!("{folder}/{sub}/{n}"))
+        names.first().map(|n| {
+            let mut segments = vec![folder];
+            segments.extend(sub.split('/'));
+            segments.push(n);
+            escape::local_href(&segments)
+        })
     };
     pick("figures", "sheet").or_else(|| pick("figures/plots", "p"))
 }
@@ -88,9 +93,13 @@ fn study(root: &Path, folder: &str) -> Result<Option<Study>> {
             format!("{a} ({} values)", values.len())
         })
         .collect();
-    let done = std::fs::read_to_string(dir.join("cells.csv"))
-        .map(|t| t.lines().filter(|l| l.contains(",done,")).count())
-        .unwrap_or(0);
+    let done = volphot::read_text_capped(
+        &dir.join("cells.csv"),
+        volphot::TEXT_INPUT_CAP,
+        "cells table",
+    )
+    .map(|t| t.lines().filter(|l| l.contains(",done,")).count())
+    .unwrap_or(0);
     Ok(Some(Study {
         folder: folder.to_string(),
         name: plan.experiment.clone(),
@@ -111,11 +120,14 @@ const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em aut
 
 fn card(s: &Study) -> String {
     let mut c = String::from("<div class=\"card\">");
-    let target = if s.has_html {
-        format!("{}/report.html", s.folder)
-    } else {
-        format!("{}/report.md", s.folder)
-    };
+    let target = escape::local_href(&[
+        &s.folder,
+        if s.has_html {
+            "report.html"
+        } else {
+            "report.md"
+        },
+    ]);
     if let Some(t) = &s.thumbnail {
         let _ = write!(
             c,
@@ -141,8 +153,8 @@ fn card(s: &Study) -> String {
         s.done,
         escape::html(&s.description),
         escape::html(&s.axes.join(", ")),
-        escape::html(&s.folder),
-        escape::html(&s.folder),
+        escape::local_href(&[&s.folder]),
+        escape::local_href(&[&s.folder]),
     );
     c
 }
@@ -174,9 +186,11 @@ fn write_paper(root: &Path) -> Result<Option<PathBuf>> {
         | pulldown_cmark::Options::ENABLE_HEADING_ATTRIBUTES
         | pulldown_cmark::Options::ENABLE_FOOTNOTES;
     let mut body = String::new();
+    // Rendered like a report: no raw HTML (the claims' comments are dropped), no link but
+    // relative and http(s).
     pulldown_cmark::html::push_html(
         &mut body,
-        pulldown_cmark::Parser::new_ext(&markdown, options),
+        escape::safe_events(pulldown_cmark::Parser::new_ext(&markdown, options)).into_iter(),
     );
     let html = format!(
         "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>volphot: reproducing the 2006 study</title><style>{PAPER_STYLE}</style></head><body>\n<p><a href=\"index.html\">← all studies</a></p>\n{body}</body></html>\n"
@@ -190,8 +204,15 @@ const PAPER_STYLE: &str = "body{font-family:serif;max-width:860px;margin:2em aut
 table{border-collapse:collapse;font-size:0.9em;margin:1em 0;display:block;overflow-x:auto}td,th{border:1px solid #ccc;padding:2px 6px}\
 th{background:#eee}img{max-width:100%}code{background:#f3f3f3;padding:0 3px;font-size:0.9em}";
 
-/// Writes `root/index.html` for every study folder below `root`; returns its path.
-pub(crate) fn write_index(root: &Path) -> Result<PathBuf> {
+/// What `sweep index` wrote: the page, and the folders it skipped (with why).
+pub(crate) struct Index {
+    pub(crate) path: PathBuf,
+    pub(crate) skipped: Vec<(String, String)>,
+}
+
+/// Writes `root/index.html` for every study folder below `root`. A folder whose records
+/// cannot be read is skipped and named, never the whole index lost.
+pub(crate) fn write_index(root: &Path) -> Result<Index> {
     let mut folders: Vec<String> = std::fs::read_dir(root)
         .with_context(|| format!("reading {}", root.display()))?
         .flatten()
@@ -200,9 +221,12 @@ pub(crate) fn write_index(root: &Path) -> Result<PathBuf> {
         .collect();
     folders.sort();
     let mut studies = Vec::new();
+    let mut skipped = Vec::new();
     for f in &folders {
-        if let Some(s) = study(root, f)? {
-            studies.push(s);
+        match study(root, f) {
+            Ok(Some(s)) => studies.push(s),
+            Ok(None) => {}
+            Err(e) => skipped.push((f.clone(), format!("{e:#}"))),
         }
     }
     let mut body = String::new();
@@ -221,7 +245,13 @@ pub(crate) fn write_index(root: &Path) -> Result<PathBuf> {
         body += "<p>Benchmarks (machine, configurations, every run's times): ";
         body += &benches
             .iter()
-            .map(|b| format!("<a href=\"bench/{0}\">{0}</a>", escape::html(b)))
+            .map(|b| {
+                format!(
+                    "<a href=\"{}\">{}</a>",
+                    escape::local_href(&["bench", b]),
+                    escape::html(b)
+                )
+            })
             .collect::<Vec<_>>()
             .join(", ");
         body += "</p>";
@@ -240,5 +270,166 @@ pub(crate) fn write_index(root: &Path) -> Result<PathBuf> {
     );
     let path = root.join("index.html");
     volphot::write_atomic(&path, html.as_bytes())?;
-    Ok(path)
+    Ok(Index { path, skipped })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A real study's plan, as a valid `plan.json`.
+    const PLAN: &str = include_str!("../../../../reports/quickstart/plan.json");
+
+    /// Hostile folder names and contents: nothing reaches the page as markup or a script
+    /// link, and a broken study is skipped and named.
+    fn folder_name() -> impl Strategy<Value = String> {
+        prop_oneof![
+            Just("quickstart".to_string()),
+            Just("javascript:alert(document.domain)".to_string()),
+            Just("JaVaScRiPt:alert(1)".to_string()),
+            Just("\"><img src=x onerror=alert(1)>".to_string()),
+            Just("a b#c?d".to_string()),
+            Just("données".to_string()),
+            Just("data:text,x".to_string()),
+        ]
+    }
+
+    #[derive(Debug, Clone)]
+    enum PlanFile {
+        Valid,
+        Broken,
+        Fifo,
+        Sparse,
+        Folder,
+        Missing,
+    }
+
+    fn plan_file() -> impl Strategy<Value = PlanFile> {
+        prop_oneof![
+            3 => Just(PlanFile::Valid),
+            1 => Just(PlanFile::Broken),
+            1 => Just(PlanFile::Fifo),
+            1 => Just(PlanFile::Sparse),
+            1 => Just(PlanFile::Folder),
+            1 => Just(PlanFile::Missing),
+        ]
+    }
+
+    fn description() -> impl Strategy<Value = String> {
+        prop_oneof![
+            Just("A study.".to_string()),
+            Just("Tick ` then <img src=x onerror=alert(11)> end.".to_string()),
+            Just("[the data](javascript:alert(12))".to_string()),
+            Just("<script>alert(1)</script>".to_string()),
+            Just("\"\"\"".to_string()),
+        ]
+    }
+
+    /// One generated study folder: its name, its plan, its description, whether its
+    /// `cells.csv` is a FIFO.
+    type Study = (String, PlanFile, String, bool);
+
+    fn case() -> impl Strategy<Value = (Vec<Study>, bool)> {
+        (
+            prop::collection::vec(
+                (folder_name(), plan_file(), description(), any::<bool>()),
+                1..4,
+            ),
+            any::<bool>(),
+        )
+    }
+
+    /// Builds the generated folders and writes the index; accepted when nothing was skipped.
+    fn build(dir: &Path, (studies, paper): (Vec<Study>, bool)) -> Result<bool, String> {
+        let root = tempfile::tempdir_in(dir).unwrap();
+        let root = root.path();
+        for (name, plan, description, fifo_csv) in studies {
+            let folder = root.join(&name);
+            // One folder per name: a repeated name keeps its first contents.
+            if folder.exists() {
+                continue;
+            }
+            std::fs::create_dir_all(&folder).unwrap();
+            std::fs::write(
+                folder.join("experiment.toml"),
+                format!("name = \"x\"\ndescription = {description:?}\n"),
+            )
+            .unwrap();
+            let plan_path = folder.join("plan.json");
+            match plan {
+                PlanFile::Valid => std::fs::write(&plan_path, PLAN).unwrap(),
+                PlanFile::Broken => std::fs::write(&plan_path, "{broken").unwrap(),
+                PlanFile::Fifo => {
+                    std::process::Command::new("mkfifo")
+                        .arg(&plan_path)
+                        .status()
+                        .unwrap();
+                }
+                PlanFile::Sparse => std::fs::File::create(&plan_path)
+                    .unwrap()
+                    .set_len(3 << 30)
+                    .unwrap(),
+                PlanFile::Folder => std::fs::create_dir_all(&plan_path).unwrap(),
+                PlanFile::Missing => {}
+            }
+            let csv = folder.join("cells.csv");
+            if fifo_csv {
+                std::process::Command::new("mkfifo")
+                    .arg(&csv)
+                    .status()
+                    .unwrap();
+            } else {
+                std::fs::write(&csv, "cell,status\n0,done,\n").unwrap();
+            }
+        }
+        if paper {
+            std::fs::write(
+                root.join("REPRODUCTION.md"),
+                "# Paper\n\n<script>alert(1)</script>\n\n[j](javascript:alert(2)) 0.5<!-- = value(s: x) -->\n",
+            )
+            .unwrap();
+        }
+        let index = write_index(root).map_err(|e| format!("{e:#}"))?;
+        for page in ["index.html", "REPRODUCTION.html"] {
+            let Ok(html) = std::fs::read_to_string(root.join(page)) else {
+                continue;
+            };
+            let lower = html.to_ascii_lowercase();
+            for bad in [
+                "<script",
+                "<img src=x",
+                "href=\"javascript",
+                "src=\"javascript",
+                "href=\"data:",
+            ] {
+                if lower.contains(bad) {
+                    return Err(format!("{page} holds `{bad}`"));
+                }
+            }
+        }
+        Ok(index.skipped.is_empty())
+    }
+
+    /// Case 9 and "one broken plan.json fails the whole index" of the fourth reliability
+    /// round, and cases 3–4 (links and raw HTML): hostile names and broken records.
+    #[test]
+    fn fuzz_index_folders() {
+        let dir = tempfile::tempdir().unwrap();
+        crate::fuzz::run("index", dir.path(), 120, case(), build);
+    }
+
+    #[test]
+    fn a_broken_study_is_skipped_and_named() {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, plan) in [("good", PLAN), ("bad", "{broken")] {
+            std::fs::create_dir_all(dir.path().join(name)).unwrap();
+            std::fs::write(dir.path().join(name).join("plan.json"), plan).unwrap();
+        }
+        let index = write_index(dir.path()).unwrap();
+        assert_eq!(index.skipped.len(), 1);
+        assert_eq!(index.skipped[0].0, "bad");
+        let html = std::fs::read_to_string(index.path).unwrap();
+        assert!(html.contains("./good/"), "{html}");
+    }
 }

@@ -16,7 +16,12 @@ pub(crate) fn recorded_done(out: &OutputDir) -> BTreeSet<String> {
 }
 
 fn from_json(out: &OutputDir) -> Option<BTreeSet<String>> {
-    let text = std::fs::read_to_string(out.root().join("cells.json")).ok()?;
+    let text = volphot::read_text_capped(
+        &out.root().join("cells.json"),
+        64 << 20,
+        "cells table (cells.json)",
+    )
+    .ok()?;
     let rows: Vec<serde_json::Map<String, serde_json::Value>> = serde_json::from_str(&text).ok()?;
     Some(
         rows.iter()

@@ -99,17 +99,39 @@ const OUTPUT_ENTRIES: [&str; 14] = [
     "tune",
 ];
 
-/// Refuses an output folder that belongs to another experiment (its `plan.json` names
-/// another) or that holds anything a sweep run did not write; a new or empty folder, or
-/// one of this experiment, is fine.
-pub(crate) fn check_owner(out: &OutputDir, experiment: &str) -> anyhow::Result<()> {
+/// Refuses an output folder that belongs to another experiment: its `plan.json` names
+/// another, or the same name from another file with other content (a different study that
+/// happens to share the name would replace its cells, tables and reports); or a folder
+/// that holds anything a sweep run did not write. A new or empty folder, one of this
+/// experiment file (edited or not), or one written from a copy of it, is fine.
+pub(crate) fn check_owner(
+    out: &OutputDir,
+    experiment: &crate::plan::Experiment,
+) -> anyhow::Result<()> {
     if let Ok(plan) = read_plan(out) {
         anyhow::ensure!(
-            plan.experiment == experiment,
-            "{} holds the cells of experiment `{}` (from {}), not `{experiment}`; choose another --output or remove that folder",
+            plan.experiment == experiment.name,
+            "{} holds the cells of experiment `{}` (from {}), not `{}`; choose another --output or remove that folder",
             out.root().display(),
             plan.experiment,
-            plan.experiment_file.display()
+            plan.experiment_file.display(),
+            experiment.name
+        );
+        let same_file = match (
+            std::fs::canonicalize(&plan.experiment_file),
+            std::fs::canonicalize(&experiment.source.path),
+        ) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        };
+        anyhow::ensure!(
+            same_file || plan.experiment_sha256 == experiment.sha256,
+            "{} holds the cells of experiment `{}` from {} (sha256 {}…), and {} is another file with other content under the same name; choose another --output, or remove that folder to replace its study",
+            out.root().display(),
+            plan.experiment,
+            plan.experiment_file.display(),
+            &plan.experiment_sha256.get(..12).unwrap_or(""),
+            experiment.source.path.display(),
         );
         return Ok(());
     }

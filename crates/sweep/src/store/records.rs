@@ -176,11 +176,19 @@ pub(crate) fn is_done(dir: &Path) -> bool {
     matches!(super::cell_state(dir), super::CellState::Done(_))
 }
 
+/// The largest record read (`plan.json` of a large grid, a cell's record): 64 MiB.
+const RECORD_CAP: u64 = 64 << 20;
+
+/// Reads a record of an output folder through the capped regular-file reader: a FIFO, a
+/// device or a huge file where a record should be fails at once, naming it.
+fn read_record_text(path: &Path, what: &str) -> Result<String> {
+    Ok(volphot::read_text_capped(path, RECORD_CAP, what)?)
+}
+
 /// Reads a finished cell's record.
 pub(crate) fn read_record(dir: &Path) -> Result<CellRecord> {
     let path = dir.join("cell.json");
-    let text =
-        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let text = read_record_text(&path, "cell record")?;
     let mut value: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
     fill_in_old_settings(&mut value);
@@ -223,7 +231,11 @@ pub(crate) fn read_reference_metrics(
     reference: &str,
     passes: Option<u32>,
 ) -> Option<ReferenceMetrics> {
-    let text = std::fs::read_to_string(dir.join(format!("vs-{reference}.json"))).ok()?;
+    let text = read_record_text(
+        &dir.join(format!("vs-{reference}.json")),
+        "reference metrics",
+    )
+    .ok()?;
     serde_json::from_str::<ReferenceMetrics>(&text)
         .ok()
         .filter(|m| m.version == REFERENCE_METRICS_VERSION)
@@ -272,12 +284,13 @@ pub(crate) struct PlanRecord {
 
 /// Reads `plan.json` of an output folder.
 pub(crate) fn read_plan(out: &OutputDir) -> Result<PlanRecord> {
-    let text = std::fs::read_to_string(out.plan()).with_context(|| {
-        format!(
+    if !out.plan().exists() {
+        anyhow::bail!(
             "{}: no plan.json (is this the output folder of a sweep run?)",
             out.root().display()
-        )
-    })?;
+        );
+    }
+    let text = read_record_text(&out.plan(), "plan record (plan.json)")?;
     serde_json::from_str(&text).with_context(|| format!("parsing {}", out.plan().display()))
 }
 
@@ -327,8 +340,7 @@ pub(crate) struct ReferenceRecord {
 /// Reads a reference's record.
 pub(crate) fn read_reference_record(dir: &Path) -> Result<ReferenceRecord> {
     let path = dir.join("reference.json");
-    let text =
-        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let text = read_record_text(&path, "reference record")?;
     Ok(serde_json::from_str(&text)?)
 }
 
