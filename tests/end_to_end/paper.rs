@@ -77,3 +77,135 @@ fn a_perturbed_number_fails_naming_its_line() {
     assert!(stdout.contains("the data give"), "{stdout}");
     assert!(Path::new(&copy).is_file());
 }
+
+/// The cells of a GitHub-flavoured Markdown table row: split at every `|` that no
+/// backslash escapes (GFM splits there even inside code spans and HTML comments).
+fn table_cells(row: &str) -> usize {
+    let row = row.trim();
+    let mut count = 0;
+    let mut escaped = false;
+    for c in row.chars() {
+        match c {
+            '\\' if !escaped => {
+                escaped = true;
+                continue;
+            }
+            '|' if !escaped => count += 1,
+            _ => {}
+        }
+        escaped = false;
+    }
+    // `| a | b |` has three pipes for two cells; a row without its outer pipes has one
+    // pipe fewer per missing end.
+    let outer = usize::from(row.starts_with('|')) + usize::from(row.ends_with('|'));
+    count + 1 - outer
+}
+
+/// Issue "Conclusions that hold up", part 1: a claim's `|` split GitHub's table rows, and
+/// queries showed as text. Every row of every table of every checked document has its
+/// header's cells, and cmark-gfm (comrak) renders no comment delimiter as text.
+#[test]
+fn the_documents_render_as_github_renders_them() {
+    for document in DOCUMENTS {
+        let text = std::fs::read_to_string(workspace().join(document)).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        let mut rows = 0;
+        for (i, pair) in lines.windows(2).enumerate() {
+            let is_delimiter = pair[1].trim().starts_with("|-") || pair[1].trim().starts_with("|:");
+            if !(pair[0].trim_start().starts_with('|') && is_delimiter) {
+                continue;
+            }
+            let header = table_cells(pair[0]);
+            for (k, row) in lines[i + 2..]
+                .iter()
+                .take_while(|l| l.trim_start().starts_with('|'))
+                .enumerate()
+            {
+                assert_eq!(
+                    table_cells(row),
+                    header,
+                    "{document}:{}: a row of {} cells under a header of {header}",
+                    i + 3 + k,
+                    table_cells(row)
+                );
+                rows += 1;
+            }
+        }
+        assert!(rows > 0, "{document}: no table rows");
+        let mut options = comrak::Options::default();
+        options.extension.table = true;
+        options.extension.strikethrough = true;
+        options.extension.autolink = true;
+        options.extension.tasklist = true;
+        let html = comrak::markdown_to_html(&text, &options);
+        for visible in ["&lt;!--", "--&gt;", "where scene="] {
+            assert!(
+                !html.contains(visible),
+                "{document}: `{visible}` is visible text where GitHub renders it"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_row_check_counts_cells_as_github_does() {
+    assert_eq!(table_cells("| a | b |"), 2);
+    assert_eq!(table_cells("a | b"), 2);
+    assert_eq!(table_cells("| 1<!-- = v(s: x | k=1) --> | b |"), 3);
+    assert_eq!(table_cells("| a \\| b | c |"), 2);
+}
+
+/// Issue "Conclusions that hold up", part 8: report.md and report.html of every study
+/// carried the absolute paths of the machine that rendered them. No committed result does:
+/// datasets are named with their sha256, files by their names or paths in the repository.
+#[test]
+fn no_committed_result_carries_a_machine_path() {
+    let out = std::process::Command::new("git")
+        .args(["ls-files", "-z", "reports"])
+        .current_dir(workspace())
+        .output()
+        .unwrap();
+    let files: Vec<String> = String::from_utf8_lossy(&out.stdout)
+        .split('\0')
+        .filter(|f| !f.is_empty() && !f.ends_with(".png"))
+        .map(str::to_string)
+        .collect();
+    assert!(
+        files.len() > 100,
+        "git lists {} files under reports/",
+        files.len()
+    );
+    let roots = [
+        "/home/", "/root/", "/tmp/", "/work/", "/Users/", "/mnt/", "/var/", "/opt/", "/srv/",
+    ];
+    let mut found = Vec::new();
+    for file in &files {
+        let Ok(text) = std::fs::read_to_string(workspace().join(file)) else {
+            continue;
+        };
+        for (n, line) in text.lines().enumerate() {
+            for root in roots {
+                // A path begins a word: after a space, a quote, a bracket, `=` or `:`.
+                let starts_path = line.match_indices(root).any(|(i, _)| {
+                    i == 0
+                        || line[..i]
+                            .chars()
+                            .last()
+                            .is_some_and(|c| " \"'(=:[,".contains(c))
+                });
+                if starts_path {
+                    found.push(format!(
+                        "{file}:{}: {}",
+                        n + 1,
+                        &line[..line.len().min(120)]
+                    ));
+                }
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "machine paths in committed results:\n{}",
+        found.join("\n")
+    );
+}

@@ -40,6 +40,12 @@ const CHECK: &str = r#"(async () => {
     explorer: hasExplorer,
     renders: hasExplorer && window.explorer ? window.explorer.renders : 0,
     explorerErrors: hasExplorer && window.explorer ? window.explorer.errors : [],
+    pair: hasExplorer && window.explorer ? [window.explorer.state.a, window.explorer.state.b].map((i) => window.explorer.manifest.cells[i].coords) : [],
+    cards: Array.from(document.querySelectorAll('.card')).map((c) => ({
+      id: c.id,
+      claims: Array.from(c.querySelectorAll('.claims li')).map((l) => l.textContent.trim()),
+      imageWidth: c.querySelector('img') ? c.querySelector('img').getBoundingClientRect().width : 0,
+    })),
   });
 })()"#;
 
@@ -108,6 +114,7 @@ fn committed_reports_open_from_a_clone_in_chromium() {
     let console = watch_console(&tab);
     let check = check_in_chromium(&tab, &index);
     assert!(check["images"].as_u64().unwrap() >= 10, "{check}");
+    assert_index_guides(&check);
     assert_eq!(check["broken"], serde_json::json!([]), "index: {check}");
     assert_links_resolve(&index, &check);
     let studies = linked_reports(&index, &check);
@@ -139,6 +146,9 @@ fn committed_reports_open_from_a_clone_in_chromium() {
                 "{}",
                 page.display()
             );
+            if page.parent().unwrap().ends_with("single_vs_multiple-paper") {
+                assert_opens_on_its_pair(&check);
+            }
         }
     }
     eprintln!(
@@ -152,6 +162,56 @@ fn committed_reports_open_from_a_clone_in_chromium() {
     );
     let errors = console.lock().unwrap().clone();
     assert!(errors.is_empty(), "console: {errors:?}");
+}
+
+/// The index is where a reader starts (issue "Conclusions that hold up", part 7): the
+/// studies in the paper's order, the one answering §1.1 first, every claim with the paper's
+/// verdict beside it, images large enough to see.
+fn assert_index_guides(check: &Value) {
+    let cards = check["cards"].as_array().expect("the index has cards");
+    assert!(cards.len() >= 10, "{} cards", cards.len());
+    assert_eq!(
+        cards[0]["id"], "single_vs_multiple-paper",
+        "the study that answers §1.1 comes first: {check}"
+    );
+    assert!(
+        cards[0]["claims"][0].as_str().unwrap().starts_with("§1.1"),
+        "{}",
+        cards[0]
+    );
+    let mut last_claim = 0;
+    for card in cards {
+        for claim in card["claims"].as_array().unwrap() {
+            let text = claim.as_str().unwrap();
+            let (tag, verdict) = text.split_at(text.find(char::is_whitespace).unwrap_or(0));
+            assert!(!verdict.trim().is_empty(), "{tag} has no verdict: {card}");
+        }
+        // The cards' first claims run in the paper's order (C1 before C2 …).
+        if let Some(first) = card["claims"][0].as_str()
+            && let Some(n) = first
+                .strip_prefix('C')
+                .and_then(|r| r.split_whitespace().next())
+            && let Ok(n) = n.parse::<u32>()
+        {
+            assert!(n >= last_claim, "C{n} after C{last_claim}: {check}");
+            last_claim = n;
+        }
+        if card["imageWidth"].as_f64().unwrap() > 0.0 {
+            assert!(
+                card["imageWidth"].as_f64().unwrap() >= 400.0,
+                "an image narrower than 400 px: {card}"
+            );
+        }
+    }
+}
+
+/// The explorer of single_vs_multiple opens on single against single + multiple of one
+/// setting: its two cells differ in exactly one axis, not in their seed alone.
+fn assert_opens_on_its_pair(check: &Value) {
+    let pair = check["pair"].as_array().expect("the explorer's first pair");
+    let (a, b) = (pair[0].as_array().unwrap(), pair[1].as_array().unwrap());
+    let differing = a.iter().zip(b).filter(|(x, y)| x != y).count();
+    assert_eq!(differing, 1, "A and B differ in {differing} axes: {check}");
 }
 
 /// The probe for Firefox: the same check, printed through `dump()`.
@@ -204,12 +264,14 @@ fn committed_index_and_a_study_open_from_a_clone_in_firefox() {
         r
     };
     let index = probed(&reports.join("index.html"));
+    assert_index_guides(&index);
     let study = linked_reports(&reports.join("index.html"), &index)
         .into_iter()
         .find(|p| p.parent().unwrap().ends_with("single_vs_multiple"))
         .expect("the index links single_vs_multiple's report.html");
     let r = probed(&study);
     assert_eq!(r["explorer"], true, "{r}");
+    assert_opens_on_its_pair(&r);
     assert!(r["renders"].as_u64().unwrap() > 0, "{r}");
     assert_eq!(r["explorerErrors"], serde_json::json!([]), "{r}");
 }

@@ -137,8 +137,9 @@ pub enum VolumeSource {
 }
 
 impl VolumeSource {
-    /// One line for captions and CSV: `foot (…/foot.raw, sha256 9f8e…)` or
-    /// `phantom engine (resolution=64)`.
+    /// One line for captions, CSV and reports: `foot (foot.raw, sha256 9f8e…)` or
+    /// `phantom engine (resolution=64)`. The file by its name only: the folder it was read
+    /// from is the machine's, and the sha256 names the content wherever it lies.
     pub fn describe(&self) -> String {
         match self {
             VolumeSource::File {
@@ -153,7 +154,11 @@ impl VolumeSource {
                     .as_ref()
                     .map(|a| format!("; {}", a.describe()))
                     .unwrap_or_default();
-                format!("{name} ({}, sha256 {}{what})", path.display(), sha256)
+                let file = path.file_name().map_or_else(
+                    || path.display().to_string(),
+                    |f| f.to_string_lossy().into_owned(),
+                );
+                format!("{name} ({file}, sha256 {sha256}{what})")
             }
             VolumeSource::Phantom { name, parameters } => {
                 format!("phantom {name} ({parameters})")

@@ -14,7 +14,7 @@ use glam::Vec3;
 use volphot::{Film, Layer, SceneParams};
 
 pub(crate) use agreement::{Agreement, agreement, mse_against_noisy_reference};
-pub(crate) use columns::{METRIC_COLUMNS, MetricColumn, is_metric, metric_keys};
+pub(crate) use columns::{METRIC_COLUMNS, MetricColumn, derived_columns, is_metric, metric_keys};
 pub(crate) use images::{
     compare, disco, disco_excess, displayed, flip_map, image_stats, luminance,
 };

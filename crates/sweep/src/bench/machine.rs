@@ -76,7 +76,7 @@ impl Machine {
             started_unix_s: std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
                 .map_or(0, |d| d.as_secs()),
-            command: std::env::args().collect(),
+            command: crate::store::recorded_command(),
         }
     }
 }

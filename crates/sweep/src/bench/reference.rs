@@ -127,7 +127,7 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     }
     let report = Report {
         machine: Machine::describe(),
-        command: std::env::args().collect(),
+        command: crate::store::recorded_command(),
         threads: threads.current_num_threads(),
         cases,
     };

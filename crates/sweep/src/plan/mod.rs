@@ -418,7 +418,7 @@ impl Experiment {
             experiment_file: self.source.path.clone(),
             experiment_sha256: self.sha256.clone(),
             quality: quality.name().into(),
-            command: std::env::args().collect(),
+            command: crate::store::recorded_command(),
             version: VERSION.to_string(),
             axes: self.axis_keys(quality),
             cells: planned,

@@ -385,9 +385,14 @@ impl Report<'_> {
             }
         }
         let _ = writeln!(s, "{}", markdown_table(table, columns));
+        let derived: Vec<String> = crate::analyse::derived_columns()
+            .iter()
+            .map(|(key, _)| md_code(key))
+            .collect();
         let _ = writeln!(
             s,
-            "All columns, with units: [cells.csv](cells.csv) ([cells.json](cells.json)).\n"
+            "All columns, with units: [cells.csv](cells.csv) ([cells.json](cells.json)). Every metric is measured by the render except {}, formulas of the settings (docs/experiments.md gives each).\n",
+            derived.join(", ")
         );
     }
 

@@ -115,6 +115,22 @@ pub(crate) fn refuse_to_lose_recorded_cells(out: &OutputDir) -> Result<()> {
     )
 }
 
+/// The axis a study is about, for the explorer's first pair: the columns of its first
+/// contact sheet, else the series or the x axis of its first plot, else its first axis —
+/// never a seed (two seeds of one setting look alike).
+fn study_axis(experiment: &Experiment, plan: &crate::store::PlanRecord) -> Option<String> {
+    let seedless = |k: &String| !plots::is_seed_axis(k) && plan.axes.contains(k);
+    let sheets = experiment.sheets.iter().filter_map(|s| s.cols.clone());
+    let plotted = experiment
+        .plots
+        .iter()
+        .flat_map(|p| p.series.clone().into_iter().chain([p.x.clone()]));
+    sheets
+        .chain(plotted)
+        .chain(plan.axes.iter().cloned())
+        .find(seedless)
+}
+
 /// Builds `cells.csv`, `cells.json`, figures, `report.md` and `report.html`. Refuses, writing
 /// nothing, when the folder's tables record finished cells whose data are not here.
 pub(crate) fn build_report(out: &OutputDir) -> Result<PathBuf> {
@@ -149,8 +165,13 @@ pub(crate) fn build_report(out: &OutputDir) -> Result<PathBuf> {
     }
     .markdown();
     volphot::write_atomic(&out.root().join("report.md"), markdown.as_bytes())?;
-    let explorer =
-        explorer::Explorer::build(out, &plan, &cells, experiment.report.explorer_max_side)?;
+    let explorer = explorer::Explorer::build(
+        out,
+        &plan,
+        &cells,
+        experiment.report.explorer_max_side,
+        study_axis(&experiment, &plan).as_deref(),
+    )?;
     let html = html::html(out.root(), &markdown, &explorer, &figures)?;
     let path = out.root().join("report.html");
     volphot::write_atomic(&path, html.as_bytes())?;

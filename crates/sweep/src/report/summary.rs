@@ -5,7 +5,12 @@
 //! The numbers are the cells' own (the extractors of `cells.csv`). Cells that differ in
 //! another axis are never averaged together: each combination of the other axes' values
 //! is a case of its own, named in the sentence; only cells that repeat another with a new
-//! seed are averaged (their mean is compared), as the plots do.
+//! seed are averaged (their mean is compared), as the plots do. With several seeds each
+//! case's change is also taken seed by seed: it is beyond the seed spread only when every
+//! seed moves the same way and their mean change exceeds twice its standard error; a change
+//! inside the spread is marked so, and with one seed the spread is said to be unmeasured.
+//! Axes whose values are not numbers or switches (the dataset, an estimator, a rule) have
+//! no first and last value to compare and get no sentence.
 
 use std::fmt::Write as _;
 
@@ -40,6 +45,26 @@ struct Change {
     /// The other axes' values, as the sentence names them (empty: the only case).
     case: String,
     percent: f64,
+    /// Whether the change is beyond its seed spread (`None`: one seed, not measured).
+    beyond: Option<bool>,
+}
+
+/// Whether paired changes (one per seed) are beyond their spread: all of one sign, and
+/// their mean more than twice its standard error. `None` with fewer than two seeds.
+fn beyond_spread(per_seed: &[f64]) -> Option<bool> {
+    let n = per_seed.len();
+    if n < 2 {
+        return None;
+    }
+    let mean = per_seed.iter().sum::<f64>() / n as f64;
+    let sd = (per_seed.iter().map(|p| (p - mean).powi(2)).sum::<f64>() / (n as f64 - 1.0)).sqrt();
+    let one_sign = per_seed.iter().all(|p| *p > 0.0) || per_seed.iter().all(|p| *p < 0.0);
+    Some(one_sign && mean.abs() > 2.0 * sd / (n as f64).sqrt())
+}
+
+/// Whether an axis's values can be first and last of something: numbers and switches.
+fn ordered(values: &[serde_json::Value]) -> bool {
+    values.iter().all(|v| v.is_number() || v.is_boolean())
 }
 
 /// The section, or nothing when no axis has two values among the finished cells.
@@ -48,15 +73,24 @@ pub(crate) fn what_changed(axes: &[String], cells: &[Collected]) -> String {
     let bullets: Vec<String> = axes
         .iter()
         .filter(|a| !is_seed_axis(a))
+        .filter(|a| ordered(&distinct_values(done.iter().copied(), a)))
         .filter_map(|a| axis_bullet(a, axes, &done))
         .collect();
     if bullets.is_empty() {
         return String::new();
     }
+    let seeds = seed_count(axes, &done);
     let mut s = String::from("## What changed\n\n");
     let _ = writeln!(
         s,
-        "Each axis from its first value to its last, in the two main metrics (`rmse` or `rmse_corrected` against the reference, `disco_excess` or `disco_energy`, `ms_share`, `time_render`) it moves most. Cells that differ in another axis are compared apart, cells that repeat one with another seed by their mean; [cells.csv](cells.csv) has every value.\n"
+        "Each axis from its first value to its last, in the two main metrics (`rmse` or `rmse_corrected` against the reference, `disco_excess` or `disco_energy`, `ms_share`, `time_render`) it moves most. Cells that differ in another axis are compared apart; axes of names (the dataset, an estimator) are not compared. {} [cells.csv](cells.csv) has every value.\n",
+        if seeds > 1 {
+            format!(
+                "Cells repeated with {seeds} seeds are compared by their mean, and a change is marked within the seed spread unless every seed moves the same way by more than twice the standard error of their mean."
+            )
+        } else {
+            "Every setting was rendered with one seed: the seed spread is not measured, and a change of a few percent may be noise.".to_string()
+        }
     );
     for b in bullets {
         let _ = writeln!(s, "- {b}");
@@ -107,6 +141,15 @@ fn axis_bullet(axis: &str, axes: &[String], done: &[&Collected]) -> Option<Strin
     (!sentences.is_empty()).then(|| sentences.join(" "))
 }
 
+/// The most seeds any setting was rendered with.
+fn seed_count(axes: &[String], done: &[&Collected]) -> usize {
+    axes.iter()
+        .filter(|a| is_seed_axis(a))
+        .map(|a| distinct_values(done.iter().copied(), a).len())
+        .product::<usize>()
+        .max(1)
+}
+
 /// A cell's value of metric `key`, as `cells.csv` has it.
 fn metric(c: &Collected, key: &str) -> Option<f64> {
     let column = METRIC_COLUMNS.iter().find(|m| m.key == key)?;
@@ -127,6 +170,14 @@ fn changes(
     let case_of = |c: &Collected| -> Vec<Option<serde_json::Value>> {
         others.iter().map(|k| axis_value(&c.planned, k)).collect()
     };
+    let seed_of = |c: &Collected| -> Vec<Option<serde_json::Value>> {
+        c.planned
+            .axes
+            .iter()
+            .filter(|(k, _)| is_seed_axis(k))
+            .map(|(_, v)| Some(v.clone()))
+            .collect()
+    };
     let mut cases: Vec<Vec<Option<serde_json::Value>>> = Vec::new();
     for c in done {
         let case = case_of(c);
@@ -134,21 +185,34 @@ fn changes(
             cases.push(case);
         }
     }
-    let mean_at = |case: &Vec<Option<serde_json::Value>>, value: &serde_json::Value| {
-        let values: Vec<f64> = done
-            .iter()
+    // Each cell of a case and an end of the axis, by its seeds' values.
+    let at = |case: &Vec<Option<serde_json::Value>>, value: &serde_json::Value| {
+        done.iter()
             .filter(|c| case_of(c) == *case && axis_value(&c.planned, axis).as_ref() == Some(value))
-            .filter_map(|c| metric(c, key))
-            .collect();
-        (!values.is_empty()).then(|| values.iter().sum::<f64>() / values.len() as f64)
+            .filter_map(|c| Some((seed_of(c), metric(c, key)?)))
+            .collect::<Vec<_>>()
+    };
+    let mean = |v: &[(Vec<Option<serde_json::Value>>, f64)]| {
+        (!v.is_empty()).then(|| v.iter().map(|(_, m)| m).sum::<f64>() / v.len() as f64)
     };
     cases
         .iter()
         .filter_map(|case| {
-            let (before, after) = (mean_at(case, first)?, mean_at(case, last)?);
+            let (from, to) = (at(case, first), at(case, last));
+            let (before, after) = (mean(&from)?, mean(&to)?);
+            // The same seed at both ends: a paired change.
+            let per_seed: Vec<f64> = from
+                .iter()
+                .filter(|(_, b)| *b != 0.0)
+                .filter_map(|(seed, b)| {
+                    let (_, a) = to.iter().find(|(s, _)| s == seed)?;
+                    Some(100.0 * (a - b) / b.abs())
+                })
+                .collect();
             (before != 0.0).then(|| Change {
                 case: case_label(others, case),
                 percent: 100.0 * (after - before) / before.abs(),
+                beyond: beyond_spread(&per_seed),
             })
         })
         .collect()
@@ -217,11 +281,15 @@ fn predicate(key: &str, changes: &[Change]) -> String {
             ("changes", signed)
         };
     let by = if verb == "leaves" { "within" } else { "by" };
+    let flag = |c: &Change| match c.beyond {
+        Some(false) => " (within the seed spread)",
+        _ => "",
+    };
     let at = |c: &Change| {
         if c.case.is_empty() {
-            format!("{} %", size(c.percent))
+            format!("{} %{}", size(c.percent), flag(c))
         } else {
-            format!("{} % at {}", size(c.percent), c.case)
+            format!("{} % at {}{}", size(c.percent), c.case, flag(c))
         }
     };
     if changes.len() <= LISTED {
@@ -238,8 +306,10 @@ fn predicate(key: &str, changes: &[Change]) -> String {
     let (from, to) = (sorted[0], sorted[sorted.len() - 1]);
     let median = sorted[sorted.len() / 2];
     let lower = changes.iter().filter(|c| c.percent < 0.0).count();
+    let measured = changes.iter().filter(|c| c.beyond.is_some()).count();
+    let beyond = changes.iter().filter(|c| c.beyond == Some(true)).count();
     format!(
-        "{verb} {} {by} {} % (at {}) to {} % (at {}) in {} cases, median {} %{}",
+        "{verb} {} {by} {} % (at {}) to {} % (at {}) in {} cases, median {} %{}{}",
         md_code(key),
         size(from.percent),
         from.case,
@@ -249,6 +319,11 @@ fn predicate(key: &str, changes: &[Change]) -> String {
         size(median.percent),
         if verb == "changes" {
             format!(", lower in {lower} of them")
+        } else {
+            String::new()
+        },
+        if measured > 0 {
+            format!("; {beyond} of the {measured} beyond their seed spread")
         } else {
             String::new()
         }
@@ -263,6 +338,7 @@ mod tests {
         Change {
             case: case.into(),
             percent,
+            beyond: None,
         }
     }
 
@@ -307,5 +383,32 @@ mod tests {
             predicate("rmse", &many),
             "changes `rmse` by −62 % (at σt(d_min) 2) to +3 % (at σt(d_min) 4) in 5 cases, median −12 %, lower in 4 of them"
         );
+    }
+
+    #[test]
+    fn changes_inside_the_seed_spread_are_marked() {
+        assert_eq!(beyond_spread(&[-10.0]), None);
+        assert_eq!(beyond_spread(&[-10.0, -12.0, -11.0]), Some(true));
+        assert_eq!(
+            beyond_spread(&[-10.0, 2.0, -11.0]),
+            Some(false),
+            "mixed signs"
+        );
+        assert_eq!(
+            beyond_spread(&[-1.0, -30.0]),
+            Some(false),
+            "mean within 2 se"
+        );
+        let within = [Change {
+            case: "foot".into(),
+            percent: -5.0,
+            beyond: Some(false),
+        }];
+        assert_eq!(
+            predicate("disco_excess", &within),
+            "lowers `disco_excess` by 5 % at foot (within the seed spread)"
+        );
+        assert!(ordered(&[serde_json::json!(6), serde_json::json!(true)]));
+        assert!(!ordered(&[serde_json::json!("scenes/foot.toml")]));
     }
 }

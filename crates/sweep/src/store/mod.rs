@@ -28,6 +28,34 @@ pub(crate) use records::*;
 pub(crate) use staging::{StagedDir, clean_stale};
 pub(crate) use verify::{CELL_FILES, CellState, FileCheck, cell_state, first_mismatch};
 
+/// The command line as a record keeps it: the program as `sweep`, every argument that is an
+/// absolute path inside the working folder relative to it, and one outside it as `…/` and
+/// its file name, so that a committed record carries no path of the machine that wrote it
+/// (`/home/…/target/release/sweep`, `/root/.cache/…/python`).
+pub(crate) fn recorded_command() -> Vec<String> {
+    let cwd = std::env::current_dir().ok();
+    std::env::args()
+        .enumerate()
+        .map(|(i, a)| {
+            if i == 0 {
+                return "sweep".to_string();
+            }
+            let path = std::path::Path::new(&a);
+            if !path.is_absolute() {
+                return a;
+            }
+            match cwd.as_deref().and_then(|c| path.strip_prefix(c).ok()) {
+                Some(rel) => rel.display().to_string(),
+                None => format!(
+                    "…/{}",
+                    path.file_name()
+                        .map_or(String::new(), |f| f.to_string_lossy().into_owned())
+                ),
+            }
+        })
+        .collect()
+}
+
 /// Program version recorded in every output.
 pub(crate) const VERSION: &str = env!("CARGO_PKG_VERSION");
 

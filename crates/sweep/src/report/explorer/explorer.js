@@ -769,8 +769,10 @@
 
   function start() {
     const done = M.cells.map((c, i) => (c.data ? i : -1)).filter((i) => i >= 0);
-    S.a = done.length ? done[0] : 0;
-    S.b = done.length > 1 ? done[1] : S.a;
+    /* The study's own pair (the swept axis's ends), else the first two finished cells. */
+    const pair = M.start;
+    S.a = pair ? pair[0] : done.length ? done[0] : 0;
+    S.b = pair ? pair[1] : done.length > 1 ? done[1] : S.a;
     S.exposure = M.cells[S.a].exposure || 0;
     restoreHash();
     buildPickers();

@@ -19,6 +19,9 @@ pub(super) struct Manifest {
     references: Vec<ReferenceEntry>,
     /// FLIP's magma colour map (256 RGB triples, base64), as nv-flip colours error maps.
     magma: String,
+    /// The pair the page opens on (positions in `cells`): the study's own comparison.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    start: Option<[usize; 2]>,
 }
 
 #[derive(Serialize)]
@@ -66,16 +69,52 @@ struct ReferenceEntry {
     data: String,
 }
 
+/// The pair a study is about: its first finished cell, and the finished cell that differs
+/// from it only in `axis`, at that axis's last value (the swept axis's ends: single against
+/// single + multiple, nused 25 against 300), not another seed of the same setting.
+fn start_pair(
+    plan: &PlanRecord,
+    cells: &[Collected],
+    data: &DataIndex,
+    axis: &str,
+) -> Option<[usize; 2]> {
+    let done: Vec<usize> = (0..cells.len())
+        .filter(|i| data.cells.contains_key(i))
+        .collect();
+    let a = *done.first()?;
+    let last = distinct_values(cells, axis).pop()?;
+    let others: Vec<&String> = plan.axes.iter().filter(|k| k.as_str() != axis).collect();
+    let same_elsewhere = |b: usize| {
+        others
+            .iter()
+            .all(|k| axis_value(&cells[a].planned, k) == axis_value(&cells[b].planned, k))
+    };
+    done.iter()
+        .copied()
+        .find(|&b| {
+            b != a
+                && axis_value(&cells[b].planned, axis).as_ref() == Some(&last)
+                && same_elsewhere(b)
+        })
+        .map(|b| [a, b])
+}
+
 impl Manifest {
     /// The manifest of the collected cells and their data files.
-    pub(super) fn new(plan: &PlanRecord, cells: &[Collected], data: &DataIndex) -> Self {
+    pub(super) fn new(
+        plan: &PlanRecord,
+        cells: &[Collected],
+        data: &DataIndex,
+        study_axis: Option<&str>,
+    ) -> Self {
         let axes: Vec<(String, Vec<serde_json::Value>)> = plan
             .axes
             .iter()
             .map(|key| (key.clone(), distinct_values(cells, key)))
             .collect();
         let references: Vec<&String> = data.references.keys().collect();
-        let cells = cells
+        let start = study_axis.and_then(|axis| start_pair(plan, cells, data, axis));
+        let entries = cells
             .iter()
             .enumerate()
             .map(|(position, c)| {
@@ -113,7 +152,7 @@ impl Manifest {
                     values: values.iter().map(value_label).collect(),
                 })
                 .collect(),
-            cells,
+            cells: entries,
             references: data
                 .references
                 .iter()
@@ -123,6 +162,7 @@ impl Manifest {
                 })
                 .collect(),
             magma: super::pack::base64(&nv_flip::magma_lut().to_vec()),
+            start,
         }
     }
 

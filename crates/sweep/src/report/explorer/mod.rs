@@ -30,15 +30,17 @@ pub(crate) struct Explorer {
 impl Explorer {
     /// Writes the data files that are missing or out of date (see [`data`]) and prepares
     /// the page's manifest.
-    /// `max_side` bounds the pixel data's long side (`[report] explorer_max_side`).
+    /// `max_side` bounds the pixel data's long side (`[report] explorer_max_side`); the page
+    /// opens on the ends of `study_axis` (see [`crate::report`]'s choice of it).
     pub(crate) fn build(
         out: &OutputDir,
         plan: &PlanRecord,
         cells: &[Collected],
         max_side: Option<usize>,
+        study_axis: Option<&str>,
     ) -> Result<Self> {
         let index = data::write_data(out, cells, max_side)?;
-        let manifest = manifest::Manifest::new(plan, cells, &index).to_script_json()?;
+        let manifest = manifest::Manifest::new(plan, cells, &index, study_axis).to_script_json()?;
         Ok(Explorer { manifest })
     }
 

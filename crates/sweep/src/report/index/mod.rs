@@ -1,7 +1,12 @@
-//! `reports/index.html`: the page a reader opens first. One card per study folder (what it
-//! varies, its cells, a thumbnail, its report and tables), a link to the paper and to the
-//! committed benchmarks — plain HTML with relative links, so it works from a `file://` open
-//! of a clone.
+//! `reports/index.html`: the page a reader starts at. The studies in the order of the paper
+//! (the thesis's question §1.1 first, then C1–C9, then beyond the thesis), each card with
+//! the claims it answers and the paper's verdict on each, a representative image large
+//! enough to see, and links to its report and image explorer (and its default-quality
+//! check); then the benchmarks. Plain HTML with relative, percent-encoded links, so it works
+//! from a `file://` open of a clone. What it says of the claims is read from the paper
+//! ([`paper`]), never retyped.
+
+mod paper;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -11,7 +16,7 @@ use anyhow::{Context, Result};
 use super::escape;
 use crate::store::{OutputDir, read_plan};
 
-/// What the index shows of one study.
+/// What the index shows of one study folder.
 struct Study {
     /// Folder name (`artifacts-paper`).
     folder: String,
@@ -24,8 +29,9 @@ struct Study {
     axes: Vec<String>,
     cells: usize,
     done: usize,
-    /// Relative path of a thumbnail (a contact sheet, else a plot), if any.
-    thumbnail: Option<String>,
+    /// The image that stands for it (a contact sheet of the whole image, else any sheet,
+    /// else a plot), relative to the index.
+    image: Option<String>,
     has_html: bool,
 }
 
@@ -52,14 +58,15 @@ fn description(dir: &Path) -> String {
         .join(" ")
 }
 
-/// The first contact sheet, else the first plot, relative to the index.
-fn thumbnail(dir: &Path, folder: &str) -> Option<String> {
-    let pick = |sub: &str, prefix: &str| -> Option<String> {
+/// The study's representative image: its first contact sheet of the whole image (single
+/// against single + multiple, say), else its first sheet, else its first plot.
+fn representative_image(dir: &Path, folder: &str) -> Option<String> {
+    let pick = |sub: &str, wanted: &dyn Fn(&str) -> bool| -> Option<String> {
         let mut names: Vec<String> = std::fs::read_dir(dir.join(sub))
             .ok()?
             .flatten()
             .map(|e| e.file_name().to_string_lossy().into_owned())
-            .filter(|n| n.starts_with(prefix) && n.ends_with(".png"))
+            .filter(|n| n.ends_with(".png") && wanted(n))
             .collect();
         names.sort();
         names.first().map(|n| {
@@ -69,12 +76,16 @@ fn thumbnail(dir: &Path, folder: &str) -> Option<String> {
             escape::local_href(&segments)
         })
     };
-    pick("figures", "sheet").or_else(|| pick("figures/plots", "p"))
+    pick("figures", &|n| {
+        n.starts_with("sheet") && n.contains("_total_")
+    })
+    .or_else(|| pick("figures", &|n| n.starts_with("sheet")))
+    .or_else(|| pick("figures/plots", &|n| n.starts_with('p')))
 }
 
 fn study(root: &Path, folder: &str) -> Result<Option<Study>> {
     let dir = root.join(folder);
-    if !dir.join("plan.json").is_file() {
+    if !dir.join("plan.json").exists() {
         return Ok(None);
     }
     let plan = read_plan(&OutputDir::new(&dir))?;
@@ -108,19 +119,26 @@ fn study(root: &Path, folder: &str) -> Result<Option<Study>> {
         axes,
         cells: plan.cells.len(),
         done,
-        thumbnail: thumbnail(&dir, folder),
+        image: representative_image(&dir, folder),
         has_html: dir.join("report.html").is_file(),
     }))
 }
 
-const STYLE: &str = "body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}\
-.grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(340px,1fr));gap:1em}\
-.card{border:1px solid #ccc;border-radius:6px;padding:0.8em}.card img{width:100%;height:160px;object-fit:contain;background:#111}\
-.card h3{margin:0.3em 0}.meta{color:#555;font-size:0.9em}code{background:#f3f3f3;padding:0 3px}";
+const STYLE: &str = "body{font-family:sans-serif;max-width:1280px;margin:2em auto;padding:0 1em;color:#222;line-height:1.4}\
+.grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(520px,1fr));gap:1.2em}\
+.card{border:1px solid #ccc;border-radius:6px;padding:0.9em}.card img{width:100%;max-height:420px;object-fit:contain;background:#1a1a1a;border-radius:4px}\
+.card h3{margin:0.3em 0}.meta{color:#555;font-size:0.9em}.claims{margin:0.4em 0;padding-left:1.2em}.claims li{margin:0.15em 0}\
+.tag{display:inline-block;background:#eef;border-radius:3px;padding:0 5px;font-weight:bold;margin-right:4px}code{background:#f3f3f3;padding:0 3px}";
 
-fn card(s: &Study) -> String {
-    let mut c = String::from("<div class=\"card\">");
-    let target = escape::local_href(&[
+/// A study's card: the paper's name for it, the claims it answers with their verdicts, its
+/// image, its links.
+fn card(
+    s: &Study,
+    entry: Option<&paper::Entry>,
+    paper: &paper::Paper,
+    quick: Option<&Study>,
+) -> String {
+    let report = escape::local_href(&[
         &s.folder,
         if s.has_html {
             "report.html"
@@ -128,38 +146,79 @@ fn card(s: &Study) -> String {
             "report.md"
         },
     ]);
-    if let Some(t) = &s.thumbnail {
+    let title = entry.map_or(s.name.clone(), |e| e.label.clone());
+    let mut c = format!(
+        "<div class=\"card\" id=\"{}\"><h3><a href=\"{report}\">{}</a></h3>",
+        escape::html(&s.folder),
+        escape::html(&title)
+    );
+    if let Some(e) = entry.filter(|e| !e.claims.is_empty()) {
+        c += "<ul class=\"claims\">";
+        for claim in &e.claims {
+            let verdict = match claim.as_str() {
+                "§1.1" => {
+                    "does global illumination make medical volume images better? the paper's answer"
+                        .to_string()
+                }
+                other => paper.verdict(other).unwrap_or("").to_string(),
+            };
+            let _ = write!(
+                c,
+                "<li><span class=\"tag\">{}</span>{}</li>",
+                escape::html(claim),
+                escape::html(&verdict)
+            );
+        }
+        c += "</ul>";
+    } else if entry.is_some() {
+        c += "<p class=\"meta\">beyond the thesis</p>";
+    }
+    if let Some(image) = &s.image {
         let _ = write!(
             c,
-            "<a href=\"{}\"><img alt=\"{}\" src=\"{}\" loading=\"lazy\"></a>",
-            escape::html(&target),
-            escape::html(&s.name),
-            escape::html(t)
+            "<a href=\"{report}\"><img alt=\"{}\" src=\"{image}\" loading=\"lazy\"></a>",
+            escape::html(&format!("{title}: a figure of the study"))
         );
     }
     let _ = write!(
         c,
-        "<h3><a href=\"{}\">{}{}</a></h3><p class=\"meta\"><code>{}</code> · {} quality · {} cells, {} done</p><p>{}</p><p class=\"meta\">varies: {}</p><p class=\"meta\"><a href=\"{}/report.md\">report.md</a> · <a href=\"{}/cells.csv\">cells.csv</a></p></div>",
-        escape::html(&target),
-        escape::html(&s.name),
-        if s.quality == "default" {
-            String::new()
-        } else {
-            format!(" ({})", escape::html(&s.quality))
-        },
+        "<p>{}</p><p class=\"meta\"><code>{}</code> · {} quality · {} cells, {} done · varies: {}</p>",
+        escape::html(&s.description),
         escape::html(&s.folder),
         escape::html(&s.quality),
         s.cells,
         s.done,
-        escape::html(&s.description),
         escape::html(&s.axes.join(", ")),
-        escape::local_href(&[&s.folder]),
-        escape::local_href(&[&s.folder]),
     );
+    let mut links = vec![format!("<a href=\"{report}\">report</a>")];
+    if s.has_html {
+        links.push(format!("<a href=\"{report}#explorer\">image explorer</a>"));
+    }
+    links.push(format!(
+        "<a href=\"{}\">report.md</a>",
+        escape::local_href(&[&s.folder, "report.md"])
+    ));
+    links.push(format!(
+        "<a href=\"{}\">cells.csv</a>",
+        escape::local_href(&[&s.folder, "cells.csv"])
+    ));
+    if let Some(q) = quick {
+        let page = if q.has_html {
+            "report.html"
+        } else {
+            "report.md"
+        };
+        links.push(format!(
+            "<a href=\"{}\">the default-quality check ({})</a>",
+            escape::local_href(&[&q.folder, page]),
+            escape::html(&q.folder)
+        ));
+    }
+    let _ = write!(c, "<p class=\"meta\">{}</p></div>", links.join(" · "));
     c
 }
 
-/// The committed benchmark files (`bench/*.json`), newest name last.
+/// The committed benchmark files (`bench/*.json`), by name.
 fn benches(root: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(root.join("bench"))
         .map(|d| {
@@ -173,45 +232,57 @@ fn benches(root: &Path) -> Vec<String> {
     names
 }
 
-/// `REPRODUCTION.md` as a page beside it (CommonMark with tables; the claims' comments are
-/// invisible), so the paper reads in a browser from a clone; `None` without the paper.
-fn write_paper(root: &Path) -> Result<Option<PathBuf>> {
-    let source = root.join("REPRODUCTION.md");
-    if !source.is_file() {
-        return Ok(None);
-    }
-    let markdown =
-        volphot::read_text_capped(&source, volphot::TEXT_INPUT_CAP, "Markdown document")?;
-    let options = pulldown_cmark::Options::ENABLE_TABLES
-        | pulldown_cmark::Options::ENABLE_HEADING_ATTRIBUTES
-        | pulldown_cmark::Options::ENABLE_FOOTNOTES;
-    let mut body = String::new();
-    // Rendered like a report: no raw HTML (the claims' comments are dropped), no link but
-    // relative and http(s).
-    pulldown_cmark::html::push_html(
-        &mut body,
-        escape::safe_events(pulldown_cmark::Parser::new_ext(&markdown, options)).into_iter(),
-    );
-    let html = format!(
-        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>volphot: reproducing the 2006 study</title><style>{PAPER_STYLE}</style></head><body>\n<p><a href=\"index.html\">← all studies</a></p>\n{body}</body></html>\n"
-    );
-    let path = root.join("REPRODUCTION.html");
-    volphot::write_atomic(&path, html.as_bytes())?;
-    Ok(Some(path))
-}
-
-const PAPER_STYLE: &str = "body{font-family:serif;max-width:860px;margin:2em auto;padding:0 1em;color:#222;line-height:1.45}\
-table{border-collapse:collapse;font-size:0.9em;margin:1em 0;display:block;overflow-x:auto}td,th{border:1px solid #ccc;padding:2px 6px}\
-th{background:#eee}img{max-width:100%}code{background:#f3f3f3;padding:0 3px;font-size:0.9em}";
-
 /// What `sweep index` wrote: the page, and the folders it skipped (with why).
 pub(crate) struct Index {
     pub(crate) path: PathBuf,
     pub(crate) skipped: Vec<(String, String)>,
 }
 
-/// Writes `root/index.html` for every study folder below `root`. A folder whose records
-/// cannot be read is skipped and named, never the whole index lost.
+/// The studies in the paper's order: a study's place is its first claim's (§1.1, then C1 …
+/// C9, then the paper's beyond-the-thesis rows in their order, then studies the paper does
+/// not name). A default-quality study goes with its `-paper` sibling.
+fn ordered<'a>(studies: &'a [Study], paper: &paper::Paper) -> Vec<(&'a Study, Option<&'a Study>)> {
+    let rank = |s: &Study| -> (usize, usize, usize, String) {
+        match paper.entry_of(&s.folder) {
+            Some((row, e)) => {
+                let first = e.claims.first().map_or(1000, |c| match c.as_str() {
+                    "§1.1" => 0,
+                    c => c.trim_start_matches('C').parse::<usize>().unwrap_or(999),
+                });
+                let base = s.folder.strip_suffix("-paper").unwrap_or(&s.folder);
+                let at = e
+                    .folders
+                    .iter()
+                    .position(|f| f.strip_suffix("-paper").unwrap_or(f) == base)
+                    .unwrap_or(0);
+                (first, row, at, s.folder.clone())
+            }
+            None => (2000, 0, 0, s.folder.clone()),
+        }
+    };
+    let mut main: Vec<&Study> = studies
+        .iter()
+        .filter(|s| {
+            s.folder.ends_with("-paper")
+                || !studies
+                    .iter()
+                    .any(|o| o.folder == format!("{}-paper", s.folder))
+        })
+        .collect();
+    main.sort_by_key(|s| rank(s));
+    main.into_iter()
+        .map(|s| {
+            let quick = s
+                .folder
+                .strip_suffix("-paper")
+                .and_then(|base| studies.iter().find(|o| o.folder == base));
+            (s, quick)
+        })
+        .collect()
+}
+
+/// Writes `root/index.html` for every study folder below `root` (and the paper's page). A
+/// folder whose records cannot be read is skipped and named, never the whole index lost.
 pub(crate) fn write_index(root: &Path) -> Result<Index> {
     let mut folders: Vec<String> = std::fs::read_dir(root)
         .with_context(|| format!("reading {}", root.display()))?
@@ -229,20 +300,38 @@ pub(crate) fn write_index(root: &Path) -> Result<Index> {
             Err(e) => skipped.push((f.clone(), format!("{e:#}"))),
         }
     }
-    let mut body = String::new();
-    let paper = write_paper(root)?;
+    let markdown = match root.join("REPRODUCTION.md") {
+        p if p.exists() => Some(volphot::read_text_capped(
+            &p,
+            volphot::TEXT_INPUT_CAP,
+            "Markdown document",
+        )?),
+        _ => None,
+    };
+    let paper_page = paper::write_page(root, markdown.as_deref())?;
+    let paper = markdown.as_deref().map(paper::parse).unwrap_or_default();
+    let mut body = String::from("<h1>volphot: the studies</h1>");
     let _ = write!(
         body,
-        "<h1>volphot: the studies</h1><p>The thesis's findings, checked one by one, are in the paper: {}. A study whose explorer data are committed opens its report.html with the image explorer (pick two cells, compare, zoom, read pixel values); the others open their report.md until they are rendered again.</p>",
-        match paper {
+        "<p>A 2006 student thesis asked whether light scattered more than once makes CT and MRI volume images better, and stated its findings C1–C9 from the images it saw. The paper, {}, measures each again; the studies below are its data, in its order, each with the claims it answers and the paper's verdict. Every study opens in its report with an image explorer (pick two cells, compare them, zoom to pixels, read the values).</p>",
+        match paper_page {
             Some(_) =>
-                "<a href=\"REPRODUCTION.html\">REPRODUCTION</a> (<a href=\"REPRODUCTION.md\">Markdown</a>)",
-            None => "<a href=\"REPRODUCTION.md\">REPRODUCTION.md</a>",
+                "<a href=\"./REPRODUCTION.html\">REPRODUCTION</a> (<a href=\"./REPRODUCTION.md\">Markdown</a>)",
+            None => "<a href=\"./REPRODUCTION.md\">REPRODUCTION.md</a>",
         }
     );
+    if let Some(answer) = &paper.answer {
+        let _ = write!(body, "<p><b>The answer:</b> {}</p>", escape::html(answer));
+    }
+    let ordered = ordered(&studies, &paper);
+    let _ = write!(body, "<div class=\"grid\">");
+    for (s, quick) in &ordered {
+        body += &card(s, paper.entry_of(&s.folder).map(|(_, e)| e), &paper, *quick);
+    }
+    body += "</div>";
     let benches = benches(root);
     if !benches.is_empty() {
-        body += "<p>Benchmarks (machine, configurations, every run's times): ";
+        body += "<h2>Benchmarks</h2><p>The machine, the configurations and every run's times: ";
         body += &benches
             .iter()
             .map(|b| {
@@ -256,15 +345,6 @@ pub(crate) fn write_index(root: &Path) -> Result<Index> {
             .join(", ");
         body += "</p>";
     }
-    let _ = write!(
-        body,
-        "<p>{} studies.</p><div class=\"grid\">",
-        studies.len()
-    );
-    for s in &studies {
-        body += &card(s);
-    }
-    body += "</div>";
     let html = format!(
         "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>volphot studies</title><style>{STYLE}</style></head><body>\n{body}\n</body></html>\n"
     );
@@ -279,7 +359,7 @@ mod tests {
     use proptest::prelude::*;
 
     /// A real study's plan, as a valid `plan.json`.
-    const PLAN: &str = include_str!("../../../../reports/quickstart/plan.json");
+    const PLAN: &str = include_str!("../../../../../reports/quickstart/plan.json");
 
     /// Hostile folder names and contents: nothing reaches the page as markup or a script
     /// link, and a broken study is skipped and named.
