@@ -30,7 +30,7 @@ done
 # Each study's wall time goes to reports/bench/reproduce<suffix>.json (the documents cite it).
 times=()
 start_all=$(date +%s.%N)
-for experiment in quickstart artifacts free_path transparent single_vs_multiple albedo stepsize cost consistency alpha presets; do
+for experiment in quickstart artifacts nused_seeds free_path transparent single_vs_multiple albedo stepsize cost consistency_seeds consistency alpha presets; do
   echo "== $experiment"
   start=$(date +%s.%N)
   ./target/release/sweep "experiments/$experiment.toml" --quiet --reference-pool "$pool" \
@@ -40,7 +40,11 @@ done
 total=$(awk "BEGIN { print $(date +%s.%N) - $start_all }")
 mkdir -p reports/bench
 {
-  echo "{\"host\": \"$(hostname)\", \"cores\": $(nproc), \"commit\": \"$(git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)\","
+  # The commit measured, with -dirty when tracked files had uncommitted changes (then it
+  # does not describe the build).
+  commit="$(git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)"
+  if [ -n "$(git status --porcelain --untracked-files=no 2>/dev/null)" ]; then commit="$commit-dirty"; fi
+  echo "{\"host\": \"$(hostname)\", \"cores\": $(nproc), \"commit\": \"$commit\","
   echo " \"studies\": [$(IFS=,; echo "${times[*]}")],"
   echo " \"total_seconds\": $total}"
 } > "reports/bench/reproduce$suffix.json"

@@ -209,3 +209,20 @@ fn no_committed_result_carries_a_machine_path() {
         found.join("\n")
     );
 }
+
+/// Issue "Conclusions that hold up", part 5: no number measured from data is typed by hand
+/// in the checked documents: `sweep claims --uncited` lists none.
+#[test]
+fn no_measured_number_is_left_without_its_source() {
+    let out = sweep()
+        .arg("claims")
+        .arg("--uncited")
+        .args(DOCUMENTS)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "numbers without a claim:\n{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+}

@@ -96,7 +96,7 @@ pub(crate) enum Command {
     Index(IndexArgs),
     /// Benchmark the thesis's headline frame (foot, 512², 40 000 photons, nused 150).
     #[command(
-        after_help = "Example:\n  sweep bench --threads 2\n  sweep bench --quick          (a smaller frame on a phantom)\n  sweep bench --reference --json reports/bench/reference-thesis.json   (the path tracer's trackers)"
+        after_help = "Example:\n  sweep bench --threads 2\n  sweep bench --quick          (a smaller frame on a phantom)\n  sweep bench --reference --json reports/bench/reference-thesis.json   (the path tracer's trackers)\n  sweep bench --reference --budget --json reports/bench/reference-budget.json   (where its noise comes from)"
     )]
     Bench(BenchArgs),
     /// Find the best settings: Hyperband over resolution and photon count with tree-Parzen
@@ -501,6 +501,14 @@ pub(crate) struct BenchArgs {
     /// it holds the weighted tracker's pilot).
     #[arg(long, default_value_t = 32, requires = "reference", value_parser = clap::value_parser!(u32).range(2..=100_000))]
     pub(crate) passes: u32,
+    /// With `--reference`: the variance budget of the default tracker instead — where its
+    /// noise comes from (pixel footprint, first free path, transmittance, light choice,
+    /// roulette, multiple-scattering paths), by pixel class, and the CPU time of each part.
+    #[arg(long, requires = "reference")]
+    pub(crate) budget: bool,
+    /// With `--budget`: samples per pixel of each of its rungs.
+    #[arg(long, default_value_t = 16, requires = "budget", value_parser = clap::value_parser!(u32).range(2..=4096))]
+    pub(crate) budget_samples: u32,
     /// With `--reference`: where converged references are kept and found again (default
     /// reports/reference-pool, as `sweep run --reference-pool`).
     #[arg(long, value_name = "DIR", requires = "reference")]
@@ -524,6 +532,10 @@ pub(crate) struct BenchArgs {
     /// Write the measurements as JSON here.
     #[arg(long)]
     pub(crate) json: Option<PathBuf>,
+    /// Write `--json` inside the repository even with uncommitted changes (its `commit`
+    /// then ends in `-dirty`).
+    #[arg(long, requires = "json")]
+    pub(crate) allow_dirty: bool,
 }
 
 /// A peer renderer `sweep bench --peer` compares with.
@@ -728,6 +740,7 @@ impl BenchArgs {
     pub(crate) fn options(&self) -> Result<BenchOptions> {
         if let Some(json) = &self.json {
             check_output_file("--json", json)?;
+            crate::bench::check_clean_for(json, self.allow_dirty)?;
         }
         if let Some(pool) = &self.reference_pool {
             check_output_folder("--reference-pool", pool)?;
@@ -762,6 +775,8 @@ impl BenchArgs {
             },
             passes: self.passes,
             reference_pool: self.reference_pool.clone(),
+            budget: self.budget,
+            budget_samples: self.budget_samples,
         })
     }
 }

@@ -275,3 +275,64 @@ fn committed_index_and_a_study_open_from_a_clone_in_firefox() {
     assert!(r["renders"].as_u64().unwrap() > 0, "{r}");
     assert_eq!(r["explorerErrors"], serde_json::json!([]), "{r}");
 }
+
+/// The paper's §1.1 answer table as Chromium shows the committed `REPRODUCTION.html`
+/// (issue "Conclusions that hold up", part 1: its cells showed query fragments and lost the
+/// head's, the foot's and the engine's values): every row has the header's five cells, each
+/// with a number and none with a claim's text.
+#[test]
+fn the_papers_answer_table_renders_whole_in_chromium() {
+    let Some(chrome) = chromium() else {
+        skip(
+            "the_papers_answer_table_renders_whole_in_chromium",
+            "no Chromium: install Debian's `chromium` (.ci/run does) or set $CHROMIUM",
+        );
+        return;
+    };
+    let dir = kept_dir("browser-paper");
+    let Some(reports) = clone_of_reports(&dir) else {
+        skip(
+            "the_papers_answer_table_renders_whole_in_chromium",
+            "not a git checkout: `git ls-files reports` lists nothing",
+        );
+        return;
+    };
+    let browser = launch(chrome);
+    let tab = browser.new_tab().unwrap();
+    let page = reports.join("REPRODUCTION.html");
+    tab.navigate_to(&format!("file://{}", page.display()))
+        .unwrap()
+        .wait_until_navigated()
+        .unwrap();
+    let probe = r#"JSON.stringify((() => {
+      const h = Array.from(document.querySelectorAll('h2')).find((e) => e.textContent.startsWith('The answer'));
+      let t = h; while (t && t.tagName !== 'TABLE') t = t.nextElementSibling;
+      return { header: t ? t.querySelectorAll('thead th').length : 0,
+               rows: t ? Array.from(t.querySelectorAll('tbody tr')).map((r) => Array.from(r.cells).map((c) => c.textContent)) : [] };
+    })())"#;
+    let text = tab.evaluate(probe, false).unwrap().value;
+    let table: Value = serde_json::from_str(
+        text.as_ref()
+            .and_then(Value::as_str)
+            .expect("a JSON string"),
+    )
+    .unwrap();
+    let header = table["header"].as_u64().unwrap();
+    assert_eq!(header, 5, "{table}");
+    let rows = table["rows"].as_array().unwrap();
+    assert!(rows.len() >= 5, "{table}");
+    for row in rows {
+        let cells = row.as_array().unwrap();
+        assert_eq!(cells.len() as u64, header, "{row}");
+        for cell in &cells[1..] {
+            let cell = cell.as_str().unwrap();
+            assert!(
+                cell.chars().any(|c| c.is_ascii_digit()),
+                "no number in `{cell}`"
+            );
+            for leak in ["<!--", "-->", "where ", "value(", "mean("] {
+                assert!(!cell.contains(leak), "`{leak}` shows in `{cell}`");
+            }
+        }
+    }
+}

@@ -95,5 +95,8 @@ pub use pass::{MarchOutput, MarchStats, render_march, render_march_beams, render
 pub use progressive::{
     ProgressiveOutput, ProgressiveStats, StopReason, next_radius, progress_rows, render_progressive,
 };
-pub use reference::{MAX_VERTICES, ReferenceAccumulator, render_reference};
+pub use reference::{
+    Budget, CpuSplit, LayerVariance, MAX_VERTICES, PixelClass, ReferenceAccumulator, SOURCES,
+    Source, Variant, reference_budget, render_reference,
+};
 pub use thinning::ThinningError;

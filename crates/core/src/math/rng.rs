@@ -26,6 +26,8 @@ pub enum Domain {
     ReferencePilot = 6,
     /// Photon planes: the draws a plane adds to its photon's path, one stream per photon.
     Planes = 7,
+    /// The reference's variance budget: its rungs and replicates, apart from any reference.
+    ReferenceBudget = 8,
 }
 
 /// SplitMix64 finaliser: a bijective avalanche mix of 64 bits.

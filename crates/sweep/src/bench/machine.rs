@@ -37,6 +37,57 @@ fn git(args: &[&str]) -> Option<String> {
         .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
 }
 
+/// A benchmark file inside the repository (one that git would commit) records the commit it
+/// measured; from a tree with uncommitted changes to tracked files that commit does not
+/// describe the build measured, so such a file is refused before any work unless
+/// `allow_dirty` (then its `commit` ends in `-dirty`, which says so).
+pub(crate) fn check_clean_for(json: &std::path::Path, allow_dirty: bool) -> anyhow::Result<()> {
+    if allow_dirty {
+        return Ok(());
+    }
+    let folder = json
+        .ancestors()
+        .skip(1)
+        .find(|a| a.as_os_str().is_empty() || a.is_dir())
+        .map(|a| {
+            if a.as_os_str().is_empty() {
+                std::path::Path::new(".")
+            } else {
+                a
+            }
+        })
+        .unwrap_or(std::path::Path::new("."));
+    let in_git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .arg("-C")
+            .arg(folder)
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    };
+    if in_git(&["rev-parse", "--is-inside-work-tree"]).as_deref() != Some("true") {
+        return Ok(());
+    }
+    let name = json
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    // An ignored file is not committed: nothing to protect.
+    if in_git(&["check-ignore", "-q", &name]).is_some() {
+        return Ok(());
+    }
+    let dirty =
+        in_git(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+    anyhow::ensure!(
+        !dirty,
+        "--json {}: the file would be committed, but the working tree has uncommitted changes, so the commit it records would not be the build it measured; commit first (or pass --allow-dirty, and its `commit` ends in -dirty)",
+        json.display()
+    );
+    Ok(())
+}
+
 impl Machine {
     /// Describes this machine now.
     pub(crate) fn describe() -> Machine {

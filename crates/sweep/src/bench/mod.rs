@@ -20,8 +20,11 @@ use volphot::{
     process_cpu_seconds,
 };
 
+mod budget;
 mod estimators;
 mod machine;
+
+pub(crate) use machine::check_clean_for;
 mod peer;
 mod reference;
 
@@ -97,6 +100,10 @@ pub(crate) struct BenchOptions {
     pub(crate) passes: u32,
     /// Where converged references are kept (the tracker comparison).
     pub(crate) reference_pool: Option<PathBuf>,
+    /// With the reference mode: the variance budget instead of the trackers' race.
+    pub(crate) budget: bool,
+    /// Samples per pixel of each rung of the budget.
+    pub(crate) budget_samples: u32,
 }
 
 /// Every configuration, in the order they run.

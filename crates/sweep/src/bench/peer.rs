@@ -95,7 +95,12 @@ struct Ratio {
 struct Agreement {
     part: Part,
     mitsuba_mean: f64,
+    /// The standard error of Mitsuba's image mean from every pixel's spread over the seeds
+    /// (pixels × (seeds − 1) degrees of freedom; pixels' noise is independent).
     mitsuba_standard_error: f64,
+    /// The same from the spread of the seeds' image means alone (seeds − 1 degrees of
+    /// freedom: with three seeds it can be several times too small or too large).
+    mitsuba_standard_error_of_seed_means: f64,
     volphot_mean: f64,
     volphot_standard_error: f64,
     /// (Mitsuba − volphot) / combined standard error.
@@ -144,6 +149,20 @@ pub(crate) fn run(
         .then(|| RemoveOnDrop(temporary.clone()));
     let base = scene_path.parent().unwrap_or(Path::new("."));
     let scene = pool.install(|| Scene::from_params(params, base, &SearchPath::from_env()))?;
+    // Mitsuba 3.9.1's `heterogeneous` medium bounds the whole grid by one majorant; volphot
+    // with one brick over the whole grid does the same, so this row shows how much of the
+    // ratio is the majorant grid and how much the tracker.
+    let global = {
+        let mut p = params.clone();
+        p.volume.brick_size = scene
+            .medium()
+            .density_grid()
+            .dims()
+            .into_iter()
+            .max()
+            .unwrap_or(1);
+        pool.install(|| Scene::from_params(&p, base, &SearchPath::from_env()))?
+    };
     let name = scene_path
         .file_stem()
         .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
@@ -168,6 +187,15 @@ pub(crate) fn run(
             rows.extend(mitsuba_rows(&mitsuba, *part, reference, &args.peer_spp)?);
             rows.extend(path_rows(
                 &scene,
+                *part,
+                reference,
+                &args.peer_spp,
+                args.seeds,
+            )?);
+            rows.extend(tracker_rows(
+                "volphot path (global majorant)",
+                &global,
+                Tracker::Weighted,
                 *part,
                 reference,
                 &args.peer_spp,
@@ -432,21 +460,38 @@ pub(super) fn path_rows(
         ("volphot path", Tracker::Weighted),
         ("volphot path (delta)", Tracker::Delta),
     ] {
-        for &spp in spps {
-            let runs = (0..seeds as u64)
-                .map(|k| {
-                    let mut integrator = scene.integrator().clone();
-                    integrator.multiple = part == Part::All;
-                    integrator.seed = scene.integrator().seed.wrapping_add(1 + k);
-                    integrator.tracker = tracker;
-                    let s = scene.with_integrator(integrator)?;
-                    let (film, cpu) =
-                        cpu_timed(|| Ok(volphot::render_reference(&s, spp, &Control::none())?.0))?;
-                    Ok((part_of(&film, part), cpu))
-                })
-                .collect::<Result<Vec<_>>>()?;
-            rows.push(row(renderer, part, format!("{spp} spp"), reference, &runs));
-        }
+        rows.extend(tracker_rows(
+            renderer, scene, tracker, part, reference, spps, seeds,
+        )?);
+    }
+    Ok(rows)
+}
+
+/// One tracker's rows on `scene`: every sample count, `seeds` seeds each.
+fn tracker_rows(
+    renderer: &str,
+    scene: &Scene,
+    tracker: Tracker,
+    part: Part,
+    reference: &Reference,
+    spps: &[u32],
+    seeds: u32,
+) -> Result<Vec<Row>> {
+    let mut rows = Vec::new();
+    for &spp in spps {
+        let runs = (0..seeds as u64)
+            .map(|k| {
+                let mut integrator = scene.integrator().clone();
+                integrator.multiple = part == Part::All;
+                integrator.seed = scene.integrator().seed.wrapping_add(1 + k);
+                integrator.tracker = tracker;
+                let s = scene.with_integrator(integrator)?;
+                let (film, cpu) =
+                    cpu_timed(|| Ok(volphot::render_reference(&s, spp, &Control::none())?.0))?;
+                Ok((part_of(&film, part), cpu))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        rows.push(row(renderer, part, format!("{spp} spp"), reference, &runs));
     }
     Ok(rows)
 }
@@ -463,7 +508,11 @@ fn efficiency_vs_mitsuba(rows: &[Row]) -> Vec<Ratio> {
     let mut ratios = Vec::new();
     for part in [Part::Single, Part::All] {
         let mitsuba = best(part, &|r| r.starts_with("mitsuba"));
-        for renderer in ["volphot path", "volphot path (delta)"] {
+        for renderer in [
+            "volphot path",
+            "volphot path (delta)",
+            "volphot path (global majorant)",
+        ] {
             let volphot = best(part, &|r| r == renderer);
             if mitsuba.is_finite() && volphot.is_finite() {
                 ratios.push(Ratio {
@@ -512,27 +561,40 @@ fn agree(
     spps: &[u32],
 ) -> Result<Agreement> {
     let spp = *spps.iter().max().context("--peer-spp is empty")?;
-    let means = runs
+    let images = runs
         .iter()
         .filter(|r| r.max_depth == part.max_depth() && r.spp == spp)
-        .map(|r| Ok(mean_of(&read_pfm(&r.file)?.2)))
-        .collect::<Result<Vec<f64>>>()?;
-    if means.len() < 2 {
+        .map(|r| Ok(read_pfm(&r.file)?.2))
+        .collect::<Result<Vec<Vec<Vec3>>>>()?;
+    if images.len() < 2 {
         bail!(
             "the agreement needs at least 2 Mitsuba seeds at {spp} spp, got {}",
-            means.len()
+            images.len()
         );
     }
+    let means: Vec<f64> = images.iter().map(|i| mean_of(i)).collect();
     let n = means.len() as f64;
     let mean = means.iter().sum::<f64>() / n;
     let spread = (means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-    let mitsuba_standard_error = spread / n.sqrt();
+    let mitsuba_standard_error_of_seed_means = spread / n.sqrt();
+    // Per pixel: the variance over seeds of its value (channels averaged); the image
+    // mean of the seeds' average has variance Σ var / (pixels² · seeds).
+    let pixels = images[0].len();
+    let summed_variance: f64 = (0..pixels)
+        .map(|p| {
+            let values: Vec<f64> = images.iter().map(|i| mean3(i[p])).collect();
+            let m = values.iter().sum::<f64>() / n;
+            values.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)
+        })
+        .sum();
+    let mitsuba_standard_error = (summed_variance / n).sqrt() / pixels as f64;
     let volphot_standard_error = reference.standard_error();
     let combined = mitsuba_standard_error.hypot(volphot_standard_error);
     Ok(Agreement {
         part,
         mitsuba_mean: mean,
         mitsuba_standard_error,
+        mitsuba_standard_error_of_seed_means,
         volphot_mean: reference.mean(),
         volphot_standard_error,
         z: (mean - reference.mean()) / combined.max(f64::MIN_POSITIVE),

@@ -101,6 +101,9 @@ struct Reference {
 
 /// Runs the comparison.
 pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
+    if args.budget {
+        return super::budget::run(args);
+    }
     if args.passes < 2 {
         bail!(
             "--passes {}: expected at least 2 (the first pass is timed apart)",
@@ -139,7 +142,7 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
 }
 
 /// The scenes: `--scene`, or the headline frame and the phantom head.
-fn scenes(args: &BenchOptions) -> Result<Vec<PathBuf>> {
+pub(super) fn scenes(args: &BenchOptions) -> Result<Vec<PathBuf>> {
     if let Some(s) = &args.scene {
         return Ok(vec![s.clone()]);
     }
@@ -151,7 +154,11 @@ fn scenes(args: &BenchOptions) -> Result<Vec<PathBuf>> {
 
 /// The scene at σt(d_min) = `t` (its σ mapping must be the thesis's) and the chosen size,
 /// rendering every layer with the path tracer.
-fn case_params(params: &SceneParams, t: f32, args: &BenchOptions) -> Result<SceneParams> {
+pub(super) fn case_params(
+    params: &SceneParams,
+    t: f32,
+    args: &BenchOptions,
+) -> Result<SceneParams> {
     let mut p = params.clone();
     super::with_sigma_t(&mut p, t)?;
     if args.quick {

@@ -26,9 +26,26 @@ pub(crate) struct Uncited {
 }
 
 /// Setting names: the number right after one is the setting's value, not a measurement.
-const SETTINGS: [&str; 14] = [
-    "nused", "maxdist", "stepsize", "σt", "σs", "σa", "d_min)", "α", "alpha", "radius", "spp",
-    "seed", "step", "albedo",
+const SETTINGS: [&str; 19] = [
+    "nused",
+    "maxdist",
+    "stepsize",
+    "σt",
+    "σs",
+    "σa",
+    "d_min)",
+    "α",
+    "alpha",
+    "radius",
+    "spp",
+    "seed",
+    "step",
+    "albedo",
+    "thin_below",
+    "shadow_tolerance",
+    "RMSE",
+    "rmse",
+    "default",
 ];
 
 /// Units after a number that make it a measurement.
@@ -60,13 +77,24 @@ fn excluded(text: &str) -> Vec<Range<usize>> {
         .collect()
 }
 
-/// The unit right after a number ending at `end`, if it is one of [`UNITS`].
+/// The unit right after a number ending at `end`, if it is one of [`UNITS`]. A `×` is a
+/// ratio's only when attached to the number and not followed by another factor (`2.1×`,
+/// not `512 × 512` or `16 × k`).
 fn unit_after(text: &str, end: usize) -> Option<&'static str> {
     let rest = text[end..].trim_start_matches([' ', '\u{202f}', '\u{2009}', '\u{a0}']);
+    let attached = rest.len() == text.len() - end;
     UNITS.iter().copied().find(|u| {
-        rest.starts_with(u)
-            && (!u.chars().all(|c| c.is_ascii_alphabetic())
-                || !rest[u.len()..].starts_with(|c: char| c.is_alphanumeric()))
+        if !rest.starts_with(u) {
+            return false;
+        }
+        let after = &rest[u.len()..];
+        match *u {
+            "×" => attached && !after.starts_with(|c: char| c.is_alphanumeric()),
+            _ if u.chars().all(|c| c.is_ascii_alphabetic()) => {
+                !rest[u.len()..].starts_with(|c: char| c.is_alphanumeric())
+            }
+            _ => true,
+        }
     })
 }
 
@@ -105,7 +133,11 @@ pub(crate) fn uncited_numbers(text: &str) -> Vec<Uncited> {
             for n in cited::numbers(&line[at..segment_end]) {
                 let (start, end) = (line_start + at + n.span.0, line_start + at + n.span.1);
                 let measured = n.decimals > 0 || unit_after(text, end).is_some();
+                // `3.9.1` is a version, not a measurement.
+                let version = text[end..].starts_with('.')
+                    && text[end + 1..].starts_with(|c: char| c.is_ascii_digit());
                 if !measured
+                    || version
                     || claimed.contains(&start)
                     || excluded.iter().any(|r| r.start <= start && start < r.end)
                     || after_setting(text, start)
@@ -153,11 +185,14 @@ mod tests {
     #[test]
     fn lists_measured_looking_numbers_without_claims() {
         let text = "# C1 at 2.5\n\
-                    The error fell by 12 %<!-- = value(s: x) --> and took 3.4 s, within 2 %.\n\
+                    The error fell by 12 %<!-- = value(s: x) --> and took 3.4 s, within 2 %, 2× sooner.\n\
                     nused 150 and maxdist 0.1 at 512² with 40 000 photons in 2006.\n\
-                    The thesis measured 1.7–3×<!-- given: thesis §8.2 --> and `0.25` in code.\n\
+                    The thesis measured 1.7–3×<!-- given: thesis §8.2 --> and `0.25` in code, 512 × 512.\n\
                     > thesis quote 0.02\n";
         let listed: Vec<String> = uncited_numbers(text).into_iter().map(|u| u.text).collect();
-        assert_eq!(listed, vec!["3.4 s".to_string(), "2 %".to_string()]);
+        assert_eq!(
+            listed,
+            vec!["3.4 s".to_string(), "2 %".to_string(), "2 ×".to_string()]
+        );
     }
 }

@@ -22,6 +22,7 @@
 
 mod accumulator;
 mod allocation;
+mod budget;
 mod delta;
 mod state;
 mod weighted;
@@ -29,6 +30,9 @@ mod weighted;
 use glam::Vec3;
 
 pub use accumulator::ReferenceAccumulator;
+pub use budget::{
+    Budget, CpuSplit, LayerVariance, PixelClass, SOURCES, Source, Variant, reference_budget,
+};
 
 use crate::control::Control;
 use crate::error::Result;

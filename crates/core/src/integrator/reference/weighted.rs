@@ -38,46 +38,105 @@ pub(super) const ROULETTE_BELOW: f32 = 0.3;
 /// at the first vertex).
 const MAX_CHOSEN_LIGHTS: usize = 16;
 
+/// What a variance budget replaces by its expectation ([`super::budget`]): each switch
+/// removes one source of noise and keeps the estimate's expectation. `Knobs::default()` is
+/// the tracer as it renders references, draw for draw.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(super) struct Knobs {
+    /// Transmittance to the lights at the first vertex from the exact optical depth.
+    pub(super) exact_single_transmittance: bool,
+    /// The same at later vertices.
+    pub(super) exact_multiple_transmittance: bool,
+    /// Next-event estimation to every light at later vertices (not one chosen).
+    pub(super) every_light_later: bool,
+    /// No roulette: survival biasing until the throughput falls below [`NO_ROULETTE_CUT`].
+    pub(super) no_roulette: bool,
+}
+
+/// The throughput at which a path without roulette ends (its remaining light is below any
+/// noise the budget can measure).
+pub(super) const NO_ROULETTE_CUT: f32 = 1e-6;
+
+/// The optical depth past which exact transmittance counts as 0 (e^−30 ≈ 10⁻¹³).
+const EXACT_TAU_MAX: f32 = 30.0;
+
 /// Traces one path from the camera.
 pub(super) fn trace_path(scene: &Scene, ray: Ray, rng: &mut Rng) -> PathSample {
-    let medium = scene.medium();
-    let settings = scene.integrator();
+    trace_path_with(scene, ray, rng, Knobs::default())
+}
+
+/// [`trace_path`] with parts replaced by their expectation.
+pub(super) fn trace_path_with(scene: &Scene, ray: Ray, rng: &mut Rng, knobs: Knobs) -> PathSample {
     let mut out = PathSample {
         work: 1,
         ..PathSample::default()
     };
-    let Some((t0, t1)) = medium.clip(&ray) else {
+    let Some(x) = first_vertex(scene, &ray, rng, &mut out) else {
         return out;
     };
-    let Some(t) = medium.sample_interaction_delta(&ray, t0, t1, rng) else {
-        return out;
-    };
+    let settings = scene.integrator();
+    let albedo = scene.medium().albedo_at(x);
+    if settings.single {
+        out.single += single_at(scene, x, ray.direction, rng, knobs, &mut out.work);
+    }
+    if settings.multiple {
+        scatter_on(scene, x, ray.direction, albedo, rng, knobs, &mut out);
+    }
+    out
+}
+
+/// The eye ray's first real collision (delta tracking), with its emission collected.
+pub(super) fn first_vertex(
+    scene: &Scene,
+    ray: &Ray,
+    rng: &mut Rng,
+    out: &mut PathSample,
+) -> Option<Vec3> {
+    let medium = scene.medium();
+    let (t0, t1) = medium.clip(ray)?;
+    let t = medium.sample_interaction_delta(ray, t0, t1, rng)?;
     let x = ray.at(t);
     out.work += 1;
-    if settings.emission && medium.has_emission() {
+    if scene.integrator().emission && medium.has_emission() {
         // Collision estimator of ∫ T ε dt: the collision density is σt·T.
         out.emission += medium.emission(x) / medium.sigma_t(x);
     }
-    let albedo = medium.albedo_at(x);
-    if settings.single {
-        out.single += albedo * direct_from_every_light(scene, x, ray.direction, rng, &mut out.work);
-    }
-    if settings.multiple {
-        scatter_on(scene, x, ray.direction, albedo, rng, &mut out);
-    }
-    out
+    Some(x)
+}
+
+/// The single-scattering layer of a first vertex at `x`: every light, the albedo as a
+/// weight.
+pub(super) fn single_at(
+    scene: &Scene,
+    x: Vec3,
+    incoming: Vec3,
+    rng: &mut Rng,
+    knobs: Knobs,
+    work: &mut u32,
+) -> Vec3 {
+    let albedo = scene.medium().albedo_at(x);
+    albedo
+        * direct_from_every_light(
+            scene,
+            x,
+            incoming,
+            rng,
+            knobs.exact_single_transmittance,
+            work,
+        )
 }
 
 /// The rest of a path after its first vertex at `x` (reached along `incoming`, carrying
 /// `throughput`): phase-sampled directions, delta-tracked collisions, survival biasing
 /// with roulette below [`ROULETTE_BELOW`], and one light's next event into the multiple
 /// layer at each vertex.
-fn scatter_on(
+pub(super) fn scatter_on(
     scene: &Scene,
     mut x: Vec3,
     mut incoming: Vec3,
     mut throughput: Vec3,
     rng: &mut Rng,
+    knobs: Knobs,
     out: &mut PathSample,
 ) {
     let medium = scene.medium();
@@ -94,14 +153,24 @@ fn scatter_on(
         out.work += 1;
         throughput *= medium.albedo_at(x);
         let largest = throughput.max_element();
-        if largest < ROULETTE_BELOW {
+        if knobs.no_roulette {
+            if largest < NO_ROULETTE_CUT {
+                return;
+            }
+        } else if largest < ROULETTE_BELOW {
             let survive = largest / ROULETTE_BELOW;
             if survive <= 0.0 || rng.uniform() >= survive {
                 return;
             }
             throughput /= survive;
         }
-        out.multiple += throughput * direct_from_one_light(scene, x, direction, rng, &mut out.work);
+        let exact = knobs.exact_multiple_transmittance;
+        out.multiple += throughput
+            * if knobs.every_light_later {
+                direct_from_every_light(scene, x, direction, rng, exact, &mut out.work)
+            } else {
+                direct_from_one_light(scene, x, direction, rng, exact, &mut out.work)
+            };
         incoming = direction;
     }
 }
@@ -113,6 +182,7 @@ fn direct_from_every_light(
     x: Vec3,
     incoming: Vec3,
     rng: &mut Rng,
+    exact: bool,
     work: &mut u32,
 ) -> Vec3 {
     let medium = scene.medium();
@@ -120,7 +190,7 @@ fn direct_from_every_light(
     for light in scene.lights() {
         if let Some((radiance, to_light, distance)) = unshadowed(medium, light, x, incoming) {
             *work += 1;
-            sum += radiance * transmittance(medium, x, to_light, distance, rng);
+            sum += radiance * transmittance(medium, x, to_light, distance, rng, exact);
         }
     }
     sum
@@ -133,11 +203,12 @@ fn direct_from_one_light(
     x: Vec3,
     incoming: Vec3,
     rng: &mut Rng,
+    exact: bool,
     work: &mut u32,
 ) -> Vec3 {
     let lights = scene.lights();
     if lights.len() > MAX_CHOSEN_LIGHTS {
-        return direct_from_every_light(scene, x, incoming, rng, work);
+        return direct_from_every_light(scene, x, incoming, rng, exact, work);
     }
     let medium = scene.medium();
     let mut candidates = [(Vec3::ZERO, Vec3::ZERO, 0.0f32, 0.0f32); MAX_CHOSEN_LIGHTS];
@@ -154,7 +225,7 @@ fn direct_from_one_light(
     }
     let (radiance, to_light, distance, weight) = choose(&candidates[..lights.len()], total, rng);
     *work += 1;
-    radiance * (transmittance(medium, x, to_light, distance, rng) * total / weight)
+    radiance * (transmittance(medium, x, to_light, distance, rng, exact) * total / weight)
 }
 
 /// A candidate drawn with probability `weight / total` (the last one with a weight when
@@ -190,14 +261,30 @@ fn unshadowed(
     Some((inc.radiance * phase, inc.to_light, inc.distance))
 }
 
-/// Ratio-tracked transmittance from `x` along `to_light` for `distance` (1 outside the box).
+/// Ratio-tracked transmittance from `x` along `to_light` for `distance` (1 outside the box);
+/// `exact`: from the exact optical depth instead (no draw, no noise).
 #[inline]
-fn transmittance(medium: &Medium, x: Vec3, to_light: Vec3, distance: f32, rng: &mut Rng) -> f32 {
+fn transmittance(
+    medium: &Medium,
+    x: Vec3,
+    to_light: Vec3,
+    distance: f32,
+    rng: &mut Rng,
+    exact: bool,
+) -> f32 {
     let shadow = Ray {
         origin: x,
         direction: to_light,
     };
     match medium.clip(&shadow) {
+        Some((s0, s1)) if exact => {
+            let tau = medium.optical_depth_exact(&shadow, s0, s1.min(distance), EXACT_TAU_MAX);
+            if tau >= EXACT_TAU_MAX {
+                0.0
+            } else {
+                (-tau).exp()
+            }
+        }
         Some((s0, s1)) => medium.transmittance_ratio_tracking(&shadow, s0, s1.min(distance), rng),
         None => 1.0,
     }
