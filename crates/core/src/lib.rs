@@ -79,9 +79,9 @@ pub use film::{
 pub use integrator::{
     Budget, CACHE_TAU_MAX, CacheError, CpuSplit, ErrorBound, EyeProbe, LayerVariance, MAX_VERTICES,
     MarchOutput, MarchStats, MsVariant, PixelClass, ProgressiveOutput, ProgressiveStats,
-    ReferenceAccumulator, SOURCES, Source, StopReason, ThinningError, Variant, error_probe_pixels,
-    next_radius, probe_eye_rays, progress_rows, reference_budget, render_march, render_march_beams,
-    render_march_planes, render_progressive, render_reference,
+    ReferenceAccumulator, Route, SOURCES, Source, StopReason, ThinningError, Variant,
+    error_probe_pixels, next_radius, probe_eye_rays, progress_rows, reference_budget, render_march,
+    render_march_beams, render_march_planes, render_progressive, render_reference,
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
 pub use medium::{

@@ -228,6 +228,12 @@ fn free_path_rules_ks_test_in_two_slab_medium() {
                 let mut rng = Rng::stream(11, Domain::Misc, i as u64);
                 let t = match rule {
                     "delta" => medium.sample_interaction_delta(&ray, 0.0, 1.0, &mut rng),
+                    // The first tentative collision placed by a stratified uniform (the
+                    // i-th of n evenly spread): the distribution must stay delta's.
+                    "first" => {
+                        let u = (i as f32 + 0.5) / n as f32;
+                        medium.sample_interaction_delta_first(&ray, 0.0, 1.0, u, &mut rng)
+                    }
                     "march" => sample_interaction_march(medium, &ray, 0.0, 1.0, 0.0005, &mut rng),
                     _ => sample_interaction_thesis(medium, &ray, 0.0, 1.0, 0.0005, &mut rng),
                 };
@@ -236,6 +242,11 @@ fn free_path_rules_ks_test_in_two_slab_medium() {
             .collect()
     };
     let d_delta = ks_distance(draw("delta"));
+    let d_first = ks_distance(draw("first"));
+    assert!(
+        d_first < critical,
+        "stratified first collision D = {d_first} ≥ {critical}"
+    );
     let d_march = ks_distance(draw("march"));
     let d_thesis = ks_distance(draw("thesis"));
     assert!(d_delta < critical, "delta D = {d_delta} ≥ {critical}");

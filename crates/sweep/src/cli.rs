@@ -506,6 +506,10 @@ pub(crate) struct BenchArgs {
     /// roulette, multiple-scattering paths), by pixel class, and the CPU time of each part.
     #[arg(long, requires = "reference")]
     pub(crate) budget: bool,
+    /// With `--reference`: also race the routes to a faster reference (stratified eye
+    /// samples, a visibility-weighted light choice, both) against the trackers.
+    #[arg(long, requires = "reference", conflicts_with = "budget")]
+    pub(crate) routes: bool,
     /// With `--budget`: samples per pixel of each of its rungs.
     #[arg(long, default_value_t = 16, requires = "budget", value_parser = clap::value_parser!(u32).range(2..=4096))]
     pub(crate) budget_samples: u32,
@@ -777,6 +781,7 @@ impl BenchArgs {
             reference_pool: self.reference_pool.clone(),
             budget: self.budget,
             budget_samples: self.budget_samples,
+            routes: self.routes,
         })
     }
 }

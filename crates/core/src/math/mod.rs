@@ -3,7 +3,9 @@
 mod geometry;
 mod rng;
 mod sampling;
+mod sobol;
 
 pub use geometry::{Aabb, Frame, Ray};
 pub use rng::{Domain, Rng, mix64};
 pub use sampling::{INV_4PI, uniform_sphere};
+pub(crate) use sobol::scrambled_sobol;

@@ -105,6 +105,38 @@ impl Medium {
         })
     }
 
+    /// [`Medium::sample_interaction_delta`] with its first tentative collision placed by the
+    /// uniform `u` (the majorant optical depth `−ln(1 − u)` along the ray) instead of a draw:
+    /// a stratified `u` stratifies the free path, and since every tentative collision
+    /// after it is drawn as before (exponential steps are memoryless), the sampled
+    /// distance has exactly delta tracking's distribution.
+    pub fn sample_interaction_delta_first(
+        &self,
+        ray: &Ray,
+        t0: f32,
+        t1: f32,
+        u: f32,
+        rng: &mut Rng,
+    ) -> Option<f32> {
+        let mut depth = -(1.0 - u).max(f32::MIN_POSITIVE).ln();
+        for seg in self.segments(ray, t0, t1) {
+            if seg.sigma_maj == 0.0 {
+                continue;
+            }
+            let reach = seg.sigma_maj * (seg.t_max - seg.t_min);
+            if depth >= reach {
+                depth -= reach;
+                continue;
+            }
+            let t = seg.t_min + depth / seg.sigma_maj;
+            if rng.uniform() * seg.sigma_maj < self.sigma_t(ray.at(t)) {
+                return Some(t);
+            }
+            return self.sample_interaction_delta(ray, t, t1, rng);
+        }
+        None
+    }
+
     /// The next interaction along `ray` within `[t0, t1]` by the chosen `rule`; `step` is the
     /// marching step of the `march` and `thesis` rules.
     pub fn sample_free_path(

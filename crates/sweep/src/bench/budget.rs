@@ -184,7 +184,7 @@ fn case(scene: &Path, sigma_t: f32, resolution: [u32; 2], b: &volphot::Budget) -
         })
         .collect();
     Case {
-        scene: scene.display().to_string(),
+        scene: crate::store::recorded_path(scene),
         sigma_t,
         resolution,
         variance_per_sample: Layers {

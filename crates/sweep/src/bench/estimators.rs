@@ -188,7 +188,7 @@ pub(crate) fn run(
     })?;
     let report = EstimatorReport {
         machine: super::Machine::describe(),
-        scene: scene_path.display().to_string(),
+        scene: crate::store::recorded_path(scene_path),
         resolution: params.camera.resolution,
         reference_passes: passes,
         time_to_rmse: time_to_rmse(&rows, &details),

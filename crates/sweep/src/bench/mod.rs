@@ -104,6 +104,8 @@ pub(crate) struct BenchOptions {
     pub(crate) budget: bool,
     /// Samples per pixel of each rung of the budget.
     pub(crate) budget_samples: u32,
+    /// With the reference mode: race the routes to a faster reference too.
+    pub(crate) routes: bool,
 }
 
 /// Every configuration, in the order they run.
@@ -403,7 +405,7 @@ fn measure(name: &str, scene: &Scene, scene_path: &Path, runs: u32) -> Result<Me
     let render = Spread::of(&times.iter().map(|t| t.render_s).collect::<Vec<_>>());
     Ok(Measurement {
         configuration: name.into(),
-        scene: scene_path.display().to_string(),
+        scene: crate::store::recorded_path(scene_path),
         resolution: [w, h],
         threads: rayon::current_num_threads(),
         photons_stored: map.stats().stored,

@@ -207,7 +207,7 @@ pub(crate) fn run(
         let first = mitsuba.first().context("Mitsuba rendered nothing")?;
         Ok(PeerReport {
             machine: super::Machine::describe(),
-            scene: scene_path.display().to_string(),
+            scene: crate::store::recorded_path(scene_path),
             resolution: params.camera.resolution,
             reference_passes: passes,
             mitsuba_variant: first.variant.clone(),

@@ -51,6 +51,24 @@ struct Case {
     trackers: Vec<TrackerResult>,
     /// CPU time to RMSE 0.01: delta's over weighted's.
     speedup_at_001: f64,
+    /// With `--routes`: the routes to a faster reference the variance budget points to,
+    /// raced beside the trackers (weighted's allocation, its seeds and passes).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    routes: Vec<RouteResult>,
+}
+
+/// A route's renders of a case.
+#[derive(Debug, Serialize)]
+struct RouteResult {
+    route: &'static str,
+    passes: u32,
+    seeds: Vec<SeedRun>,
+    pilot_cpu_s: f64,
+    cpu_per_pass_s: f64,
+    rmse: f64,
+    cpu_to_rmse: Vec<CpuTo>,
+    /// Weighted's CPU time to RMSE 0.01 over the route's.
+    speedup_over_weighted_at_001: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -215,8 +233,33 @@ fn measure_case(
         trackers.push(summarise(tracker, args.passes, runs));
     }
     let at = |t: &TrackerResult| t.cpu_to_rmse.last().map_or(f64::NAN, |r| r.cpu_s);
+    let mut routes = Vec::new();
+    if args.routes {
+        for route in volphot::Route::ALL.into_iter().skip(1) {
+            let runs = (0..u64::from(args.seeds))
+                .map(|k| {
+                    let p = with(params, Tracker::Weighted, params.integrator.seed + 1 + k);
+                    let scene = Scene::from_params(&p, base, &search)?;
+                    scene.medium().prepare();
+                    measure_route(&scene, args.passes, route, &reference)
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let r = summarise(Tracker::Weighted, args.passes, runs);
+            routes.push(RouteResult {
+                route: route.name(),
+                passes: r.passes,
+                speedup_over_weighted_at_001: at(&trackers[1]) / at(&r),
+                seeds: r.seeds,
+                pilot_cpu_s: r.pilot_cpu_s,
+                cpu_per_pass_s: r.cpu_per_pass_s,
+                rmse: r.rmse,
+                cpu_to_rmse: r.cpu_to_rmse,
+            });
+        }
+    }
     Ok(Case {
-        scene: scene_path.display().to_string(),
+        routes,
+        scene: crate::store::recorded_path(scene_path),
         sigma_t,
         resolution: params.camera.resolution,
         reference: reference.info,
@@ -302,6 +345,30 @@ fn measure_render(scene: &Scene, passes: u32, reference: &Reference) -> Result<S
     })
 }
 
+/// One render along a route, timed as [`measure_render`] times a tracker's.
+fn measure_route(
+    scene: &Scene,
+    passes: u32,
+    route: volphot::Route,
+    reference: &Reference,
+) -> Result<SeedRun> {
+    let cpu = || process_cpu_seconds().context("no process CPU time on this system");
+    let camera = scene.camera();
+    let mut acc = ReferenceAccumulator::new(camera.width() as usize, camera.height() as usize);
+    let start = cpu()?;
+    acc.add_passes_route(scene, 1, route, &Control::none())?;
+    let first = cpu()?;
+    acc.add_passes_route(scene, passes - 1, route, &Control::none())?;
+    let end = cpu()?;
+    let image = acc.film().total();
+    Ok(SeedRun {
+        seed: scene.integrator().seed,
+        first_pass_cpu_s: first - start,
+        other_passes_cpu_s: end - first,
+        mse: mse_against_noisy_reference(&image, &reference.image, &reference.variance),
+    })
+}
+
 /// Means over the seeds and the extrapolated CPU time to each target RMSE.
 fn summarise(tracker: Tracker, passes: u32, seeds: Vec<SeedRun>) -> TrackerResult {
     let n = seeds.len() as f64;
@@ -352,6 +419,20 @@ fn print_case(case: &Case) {
             t.rmse,
             t.cpu_to_rmse[0].cpu_s,
             t.cpu_to_rmse[1].cpu_s
+        );
+    }
+    for r in &case.routes {
+        println!(
+            "  {:<9} {:>6} {:>9.2} {:>11.3} {:>10.3e} {:>13.1} {:>13.1}   {:.2}× weighted's speed ({})",
+            "route",
+            r.passes,
+            r.pilot_cpu_s,
+            r.cpu_per_pass_s,
+            r.rmse,
+            r.cpu_to_rmse[0].cpu_s,
+            r.cpu_to_rmse[1].cpu_s,
+            r.speedup_over_weighted_at_001,
+            r.route
         );
     }
     println!(

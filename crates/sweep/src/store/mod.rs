@@ -28,6 +28,25 @@ pub(crate) use records::*;
 pub(crate) use staging::{StagedDir, clean_stale};
 pub(crate) use verify::{CELL_FILES, CellState, FileCheck, cell_state, first_mismatch};
 
+/// A path as a record keeps it: relative to the working folder when inside it, else `…/`
+/// and its file name (no folder of the machine that wrote the record).
+pub(crate) fn recorded_path(path: &Path) -> String {
+    if !path.is_absolute() {
+        return path.display().to_string();
+    }
+    match std::env::current_dir()
+        .ok()
+        .and_then(|c| path.strip_prefix(c).ok().map(Path::to_path_buf))
+    {
+        Some(rel) => rel.display().to_string(),
+        None => format!(
+            "…/{}",
+            path.file_name()
+                .map_or(String::new(), |f| f.to_string_lossy().into_owned())
+        ),
+    }
+}
+
 /// The command line as a record keeps it: the program as `sweep`, every argument that is an
 /// absolute path inside the working folder relative to it, and one outside it as `…/` and
 /// its file name, so that a committed record carries no path of the machine that wrote it

@@ -8,6 +8,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::allocation::Allocation;
+use super::routes::{LightVisibility, Route, stratified_eye};
 use super::{PathSample, delta, weighted};
 use crate::control::Control;
 use crate::error::{Error, Result};
@@ -68,6 +69,34 @@ fn trace(scene: &Scene, tracker: Tracker, width: usize, pixel: usize, rng: &mut 
         Tracker::Delta => delta::trace_path(scene, ray, rng),
         Tracker::Weighted => weighted::trace_path(scene, ray, rng),
     }
+}
+
+/// Sample `k` of `pixel` along `route` (the weighted tracker, guided as the route says).
+#[inline]
+fn trace_route(
+    scene: &Scene,
+    route: Route,
+    visibility: Option<&LightVisibility>,
+    pixel: usize,
+    k: u32,
+    rng: &mut Rng,
+) -> PathSample {
+    let width = scene.camera().width() as usize;
+    let (x, y) = (pixel % width, pixel / width);
+    let (jitter, first_collision) = if route.stratified() {
+        let [jx, jy, u] = stratified_eye(scene.integrator().seed, pixel, k);
+        ([jx, jy], Some(u))
+    } else {
+        (rng.uniform2(), None)
+    };
+    let ray = scene
+        .camera()
+        .ray(x as f32 + jitter[0], y as f32 + jitter[1]);
+    let guides = weighted::Guides {
+        first_collision,
+        visibility: visibility.filter(|_| route.visible_lights()),
+    };
+    weighted::trace_path_with(scene, ray, rng, weighted::Knobs::default(), guides)
 }
 
 impl ReferenceAccumulator {
@@ -169,6 +198,32 @@ impl ReferenceAccumulator {
     /// number of rows finished within the current call and may stop it; a stopped call
     /// leaves the accumulator partly updated, so it must be discarded.
     pub fn add_passes(&mut self, scene: &Scene, passes: u32, control: &Control<'_>) -> Result<f64> {
+        self.add_passes_with(scene, passes, None, control)
+    }
+
+    /// [`Self::add_passes`] of the weighted tracker along a route to a faster reference
+    /// ([`Route`]), with the weighted tracker's allocation: what `sweep bench --reference`
+    /// races. [`Route::Weighted`] renders the weighted tracker's samples to the bit.
+    pub fn add_passes_route(
+        &mut self,
+        scene: &Scene,
+        passes: u32,
+        route: Route,
+        control: &Control<'_>,
+    ) -> Result<f64> {
+        let mut weighted = scene.integrator().clone();
+        weighted.tracker = Tracker::Weighted;
+        let scene = scene.with_integrator(weighted)?;
+        self.add_passes_with(&scene, passes, Some(route), control)
+    }
+
+    fn add_passes_with(
+        &mut self,
+        scene: &Scene,
+        passes: u32,
+        route: Option<Route>,
+        control: &Control<'_>,
+    ) -> Result<f64> {
         let camera = scene.camera();
         if camera.width() as usize != self.width || camera.height() as usize != self.height {
             return Err(Error::SizeMismatch {
@@ -182,6 +237,9 @@ impl ReferenceAccumulator {
         if self.passes == 0 && passes > 0 {
             self.allocation = pilot(scene, self.width, self.height);
         }
+        let visibility = route
+            .filter(|r| r.visible_lights())
+            .map(|_| LightVisibility::build(scene));
         let (first, width) = (self.passes, self.width);
         let rows_done = AtomicU64::new(0);
         let (seed, tracker) = (scene.integrator().seed, scene.integrator().tracker);
@@ -198,7 +256,12 @@ impl ReferenceAccumulator {
                     let pixel = y * width + x;
                     for k in samples(pixel, first)..samples(pixel, first + passes) {
                         let mut rng = Rng::stream2(seed, Domain::Reference, pixel as u64, k as u64);
-                        let sample = trace(scene, tracker, width, pixel, &mut rng);
+                        let sample = match route {
+                            Some(r) => {
+                                trace_route(scene, r, visibility.as_ref(), pixel, k, &mut rng)
+                            }
+                            None => trace(scene, tracker, width, pixel, &mut rng),
+                        };
                         stats.add(&sample, (k + 1) as f32);
                     }
                 }

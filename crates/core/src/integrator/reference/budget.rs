@@ -32,7 +32,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::PathSample;
-use super::weighted::{self, Knobs};
+use super::weighted::{self, Guides, Knobs, Walk};
 use crate::control::Control;
 use crate::error::Result;
 use crate::math::{Domain, Ray, Rng};
@@ -284,7 +284,13 @@ fn rung(
                     u64::from(k) * 8 + 7,
                 );
                 let ray = eye_ray(scene, pixel, &mut rng);
-                w.add(&weighted::trace_path_with(scene, ray, &mut rng, knobs));
+                w.add(&weighted::trace_path_with(
+                    scene,
+                    ray,
+                    &mut rng,
+                    knobs,
+                    Guides::default(),
+                ));
             }
             w
         })
@@ -328,6 +334,7 @@ fn replicates(scene: &Scene, samples: u32, control: &Control<'_>) -> Result<Vec<
                         scene,
                         &ray,
                         &mut stream(1 + branch as u64),
+                        None,
                         &mut first,
                     );
                     let mut values = [0.0f64; 2];
@@ -354,7 +361,10 @@ fn replicates(scene: &Scene, samples: u32, control: &Control<'_>) -> Result<Vec<
                                     ray.direction,
                                     albedo,
                                     &mut rng,
-                                    knobs,
+                                    Walk {
+                                        knobs,
+                                        visibility: None,
+                                    },
                                     &mut out,
                                 );
                             }

@@ -24,6 +24,7 @@ mod accumulator;
 mod allocation;
 mod budget;
 mod delta;
+mod routes;
 mod state;
 mod weighted;
 
@@ -33,6 +34,7 @@ pub use accumulator::ReferenceAccumulator;
 pub use budget::{
     Budget, CpuSplit, LayerVariance, PixelClass, SOURCES, Source, Variant, reference_budget,
 };
+pub use routes::Route;
 
 use crate::control::Control;
 use crate::error::Result;

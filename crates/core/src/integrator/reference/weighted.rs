@@ -25,6 +25,7 @@
 
 use glam::Vec3;
 
+use super::routes::LightVisibility;
 use super::{MAX_VERTICES, PathSample};
 use crate::math::{Ray, Rng};
 use crate::medium::Medium;
@@ -60,18 +61,35 @@ pub(super) const NO_ROULETTE_CUT: f32 = 1e-6;
 /// The optical depth past which exact transmittance counts as 0 (e^−30 ≈ 10⁻¹³).
 const EXACT_TAU_MAX: f32 = 30.0;
 
-/// Traces one path from the camera.
-pub(super) fn trace_path(scene: &Scene, ray: Ray, rng: &mut Rng) -> PathSample {
-    trace_path_with(scene, ray, rng, Knobs::default())
+/// What a route of a faster reference adds to the tracker ([`super::routes`]): each keeps
+/// every pixel's expectation. `Guides::default()` adds nothing.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Guides<'a> {
+    /// The uniform that places the eye ray's first tentative collision (a stratified one
+    /// stratifies the first free path).
+    pub(super) first_collision: Option<f32>,
+    /// Each region's transmittance to each light, to choose the light at later vertices.
+    pub(super) visibility: Option<&'a LightVisibility>,
 }
 
-/// [`trace_path`] with parts replaced by their expectation.
-pub(super) fn trace_path_with(scene: &Scene, ray: Ray, rng: &mut Rng, knobs: Knobs) -> PathSample {
+/// Traces one path from the camera.
+pub(super) fn trace_path(scene: &Scene, ray: Ray, rng: &mut Rng) -> PathSample {
+    trace_path_with(scene, ray, rng, Knobs::default(), Guides::default())
+}
+
+/// [`trace_path`] with parts replaced by their expectation, or guided.
+pub(super) fn trace_path_with(
+    scene: &Scene,
+    ray: Ray,
+    rng: &mut Rng,
+    knobs: Knobs,
+    guides: Guides<'_>,
+) -> PathSample {
     let mut out = PathSample {
         work: 1,
         ..PathSample::default()
     };
-    let Some(x) = first_vertex(scene, &ray, rng, &mut out) else {
+    let Some(x) = first_vertex(scene, &ray, rng, guides.first_collision, &mut out) else {
         return out;
     };
     let settings = scene.integrator();
@@ -80,21 +98,38 @@ pub(super) fn trace_path_with(scene: &Scene, ray: Ray, rng: &mut Rng, knobs: Kno
         out.single += single_at(scene, x, ray.direction, rng, knobs, &mut out.work);
     }
     if settings.multiple {
-        scatter_on(scene, x, ray.direction, albedo, rng, knobs, &mut out);
+        let walk = Walk {
+            knobs,
+            visibility: guides.visibility,
+        };
+        scatter_on(scene, x, ray.direction, albedo, rng, walk, &mut out);
     }
     out
 }
 
-/// The eye ray's first real collision (delta tracking), with its emission collected.
+/// How a path walks after its first vertex: the budget's knobs and the light choice's
+/// guide.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Walk<'a> {
+    pub(super) knobs: Knobs,
+    pub(super) visibility: Option<&'a LightVisibility>,
+}
+
+/// The eye ray's first real collision (delta tracking; its first tentative collision
+/// placed by `first` when given), with its emission collected.
 pub(super) fn first_vertex(
     scene: &Scene,
     ray: &Ray,
     rng: &mut Rng,
+    first: Option<f32>,
     out: &mut PathSample,
 ) -> Option<Vec3> {
     let medium = scene.medium();
     let (t0, t1) = medium.clip(ray)?;
-    let t = medium.sample_interaction_delta(ray, t0, t1, rng)?;
+    let t = match first {
+        Some(u) => medium.sample_interaction_delta_first(ray, t0, t1, u, rng),
+        None => medium.sample_interaction_delta(ray, t0, t1, rng),
+    }?;
     let x = ray.at(t);
     out.work += 1;
     if scene.integrator().emission && medium.has_emission() {
@@ -136,9 +171,10 @@ pub(super) fn scatter_on(
     mut incoming: Vec3,
     mut throughput: Vec3,
     rng: &mut Rng,
-    knobs: Knobs,
+    walk: Walk<'_>,
     out: &mut PathSample,
 ) {
+    let knobs = walk.knobs;
     let medium = scene.medium();
     for _ in 1..MAX_VERTICES {
         let direction = medium.phase().sample(incoming, rng.uniform2());
@@ -169,7 +205,15 @@ pub(super) fn scatter_on(
             * if knobs.every_light_later {
                 direct_from_every_light(scene, x, direction, rng, exact, &mut out.work)
             } else {
-                direct_from_one_light(scene, x, direction, rng, exact, &mut out.work)
+                direct_from_one_light(
+                    scene,
+                    x,
+                    direction,
+                    rng,
+                    exact,
+                    walk.visibility,
+                    &mut out.work,
+                )
             };
         incoming = direction;
     }
@@ -204,6 +248,7 @@ fn direct_from_one_light(
     incoming: Vec3,
     rng: &mut Rng,
     exact: bool,
+    visibility: Option<&LightVisibility>,
     work: &mut u32,
 ) -> Vec3 {
     let lights = scene.lights();
@@ -213,9 +258,12 @@ fn direct_from_one_light(
     let medium = scene.medium();
     let mut candidates = [(Vec3::ZERO, Vec3::ZERO, 0.0f32, 0.0f32); MAX_CHOSEN_LIGHTS];
     let mut total = 0.0f32;
-    for (slot, light) in candidates.iter_mut().zip(lights) {
+    for (l, (slot, light)) in candidates.iter_mut().zip(lights).enumerate() {
         if let Some((radiance, to_light, distance)) = unshadowed(medium, light, x, incoming) {
-            let weight = (radiance.x + radiance.y + radiance.z).max(0.0);
+            // With a guide, the choice also weighs how much of the light gets through the
+            // region around `x` (never less than a floor, so every light stays possible).
+            let seen = visibility.map_or(1.0, |v| v.weight(x, l));
+            let weight = (radiance.x + radiance.y + radiance.z).max(0.0) * seen;
             *slot = (radiance, to_light, distance, weight);
             total += weight;
         }
