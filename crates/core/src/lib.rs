@@ -85,7 +85,8 @@ pub use integrator::{
 };
 pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
 pub use medium::{
-    Coefficients, ColourTransfer, DEFAULT_BRICK_SIZE, FreePath, MIN_MEAN_FREE_PATH, MajorantGrid,
+    ClipParams, ClipPlaneParams, ClipRegion, ClipSpace, Coefficients, ColourTransfer,
+    CropBoxParams, DEFAULT_BRICK_SIZE, FreePath, HalfSpace, MIN_MEAN_FREE_PATH, MajorantGrid,
     MajorantSegment, MajorantSegments, MappingKind, Medium, MediumSettings, Pgm, Phase,
     SigmaMapping, SigmaParams, SigmaReport, Split, THESIS_ALBEDO, THESIS_T, TransferFunction,
     TransferKind, TransferParams, blocked_depth, parse_pgm, sample_interaction_march,

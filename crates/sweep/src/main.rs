@@ -14,6 +14,7 @@ mod cost;
 mod fuzz;
 mod plan;
 mod progress;
+mod ranges;
 mod render;
 mod report;
 mod store;

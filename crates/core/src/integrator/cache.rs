@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::Vec3;
 
-use super::gather::mask_estimates;
+use super::multiple::mask_estimates;
 use crate::math::{Aabb, Ray};
 use crate::medium::Medium;
 use crate::photon::{GatherScratch, GatherVariant, PhotonMap};

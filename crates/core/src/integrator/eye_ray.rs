@@ -19,7 +19,7 @@ use glam::Vec3;
 use super::estimate_track::EstimateTrack;
 use super::gather::{MapGroup, source_factor};
 use super::marcher::Marcher;
-use super::pass::MsSource;
+use super::multiple::MsSource;
 use super::sample::{Accumulator, RaySample};
 use super::shadow_track::ShadowTrack;
 use super::thinning::Bands;

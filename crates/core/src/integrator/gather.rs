@@ -6,6 +6,7 @@
 use glam::Vec3;
 
 use super::cache::ScatterCache;
+use super::multiple::mask_estimates;
 use crate::error::{Error, Result};
 use crate::math::Aabb;
 use crate::medium::Medium;
@@ -138,38 +139,5 @@ pub(super) fn source_factor(estimate: Estimate, medium: &Medium, x: Vec3, sigma_
         Estimate::Masked | Estimate::Fluence => medium.albedo_at(x) * sigma_t,
         Estimate::Albedo => medium.albedo_at(x),
         Estimate::Thesis => Vec3::ONE,
-    }
-}
-
-/// Divides masked estimates by the medium's share of their gather sphere. Variants often
-/// share a radius (all that hit `maxdist`, or equal `nused` under different caps), so each
-/// distinct radius is measured once.
-pub(super) fn mask_estimates(
-    medium: &Medium,
-    at: Vec3,
-    masked: &[bool],
-    radii: &[f32],
-    values: &mut [Vec3],
-) {
-    let mut measured: [(f32, f32); 8] = [(f32::NAN, 0.0); 8];
-    let mut count = 0;
-    for ((value, &m), &r) in values.iter_mut().zip(masked).zip(radii) {
-        if !m || r <= 0.0 {
-            continue;
-        }
-        let share = match measured[..count].iter().find(|(radius, _)| *radius == r) {
-            Some(&(_, share)) => share,
-            None => {
-                let share = medium.occupancy(at, r);
-                measured[count % measured.len()] = (r, share);
-                count = (count + 1).min(measured.len());
-                share
-            }
-        };
-        *value = if share > 0.0 {
-            *value / share
-        } else {
-            Vec3::ZERO
-        };
     }
 }

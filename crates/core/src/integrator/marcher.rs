@@ -17,7 +17,7 @@ use glam::Vec3;
 use super::cache::TransmittanceCache;
 use super::eye_samples::{EyeSampleStore, RowSamples};
 use super::gather::{MapGroup, MsVariant};
-use super::pass::MsSource;
+use super::multiple::MsSource;
 use super::sample::{Accumulator, RowCounters};
 use super::thinning::knot_cap;
 use crate::math::{Domain, Ray, Rng};

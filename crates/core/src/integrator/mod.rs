@@ -11,7 +11,7 @@
 //! ────────────────────────  ───────────────────  ─────────────────────────────────────────
 //! entry, rows → films       pass.rs              render_march, render_march_beams,
 //!                                                render_march_planes, their measured
-//!                                                forms, MsSource, MarchOutput, MarchStats
+//!                                                forms, MarchOutput, MarchStats
 //! one image row             marcher.rs         * Marcher (what a pass reads) and its
 //!                                                constructors, render_row, Row
 //! one eye ray               eye_ray.rs         * collect_samples, trace, add_single,
@@ -30,15 +30,16 @@
 //! between passes            eye_samples.rs       EyeSamples, EyeSampleStore (replay)
 //! every stage (a leaf)      sample.rs            RaySample, Accumulator, RowCounters,
 //!                                                GatheredEstimates
+//! which estimator (a leaf)  multiple.rs          MsSource (gathers, beams, spheres,
+//!                                                planes), mask_estimates
 //! ```
 //!
 //! Around the pass: `progressive.rs` (render_progressive: progressive photon mapping,
 //! progressive beams and photon planes, one pass per iteration), `eye_probe.rs` (probe_eye_rays: samples per
 //! eye ray, measured before rendering) and `reference.rs` (render_reference: the unbiased
 //! path tracer, which needs no marcher). Imports run one way, from the entry points down to
-//! the leaves `sample.rs`, `error_bound.rs` and `adaptive_fill.rs`, except between
-//! `gather.rs` and `cache.rs` (a map group owns its scattering cache, whose nodes are
-//! masked by gather.rs's `mask_estimates`).
+//! the leaves `sample.rs`, `multiple.rs`, `error_bound.rs` and `adaptive_fill.rs`, with no
+//! circle (`crates/sweep/tests/architecture.rs` fails on one).
 //!
 //! # The marching integrator
 //!
@@ -78,6 +79,7 @@ mod eye_ray;
 mod eye_samples;
 mod gather;
 mod marcher;
+mod multiple;
 mod pass;
 mod plane;
 mod progressive;

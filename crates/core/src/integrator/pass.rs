@@ -17,6 +17,7 @@ use super::error_probes::CacheError;
 use super::eye_samples::{EyeSampleStore, EyeSamples, SampleKeeper};
 use super::gather::{MapGroup, MsVariant, group_by_map};
 use super::marcher::{Marcher, Row};
+use super::multiple::MsSource;
 use crate::control::Control;
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
@@ -130,20 +131,6 @@ pub(super) fn march_measured(
     let groups = group_by_map(variants, maps, settings, medium.bounds())?;
     let source = MsSource::Gathers;
     run_march(scene, variants, groups, source, control, (measure, eye))
-}
-
-/// Where a pass's multiple-scattering term comes from.
-#[derive(Debug, Clone, Copy)]
-pub(super) enum MsSource<'a> {
-    /// Photon-map gathers at the marching samples (the variants' map groups).
-    Gathers,
-    /// The beam radiance estimate over photons as spheres.
-    Beams(&'a BeamMap<'a>),
-    /// The point estimate with each photon's own radius (sample-point kernels) at every
-    /// marching sample.
-    Spheres(&'a BeamMap<'a>),
-    /// Photon planes.
-    Planes(&'a PlaneMap<'a>),
 }
 
 /// Renders a scene with the ray-marching integrator, the multiple-scattering term from the

@@ -11,6 +11,7 @@
 //!   the corners from a [`compact_density`] copy of the grid;
 //! * [`phase`] is the phase function.
 
+mod clip;
 pub mod colour;
 mod compact_density;
 mod empty_cells;
@@ -24,6 +25,7 @@ mod transfer;
 
 use glam::Vec3;
 
+pub use clip::{ClipParams, ClipPlaneParams, ClipRegion, ClipSpace, CropBoxParams, HalfSpace};
 pub use colour::ColourTransfer;
 pub use free_path::{FreePath, sample_interaction_march, sample_interaction_thesis};
 pub use majorant::{MajorantGrid, MajorantSegment, MajorantSegments};
@@ -64,6 +66,8 @@ pub struct MediumSettings {
     pub reconstruction: Reconstruction,
     /// Majorant brick edge in voxels.
     pub brick_size: usize,
+    /// What of the volume is kept (nothing clipped by default).
+    pub clip: ClipParams,
 }
 
 impl Default for MediumSettings {
@@ -79,6 +83,7 @@ impl Default for MediumSettings {
             phase: Phase::ISOTROPIC,
             reconstruction: Reconstruction::Trilinear,
             brick_size: DEFAULT_BRICK_SIZE,
+            clip: ClipParams::default(),
         }
     }
 }
@@ -170,6 +175,8 @@ pub struct Medium {
     emission_colour: bool,
     phase: Phase,
     majorants: MajorantGrid,
+    /// The kept part of the box (`None`: all of it).
+    clip_region: Option<ClipRegion>,
     /// Built on first use by the exact optical depth.
     empty_cells: std::sync::OnceLock<empty_cells::EmptyCells>,
     /// Built on first use by the exact optical depth (`None`: too many distinct values).
@@ -199,6 +206,8 @@ impl Medium {
             .map(|&d| settings.transfer.apply(d))
             .collect();
         let density = volume.grid().with_values(values);
+        let clip_region =
+            ClipRegion::create(&settings.clip, density.bounds()).map_err(|e| e.within("clip"))?;
         let d_min = density.min_positive().unwrap_or(0.0);
         let (_, d_max) = density.min_max();
         let largest_extent = density.bounds().largest_extent();
@@ -232,6 +241,7 @@ impl Medium {
             emission_colour: settings.emission_colour,
             phase: settings.phase,
             majorants,
+            clip_region,
             empty_cells: std::sync::OnceLock::new(),
             compact_density: std::sync::OnceLock::new(),
             report,
@@ -251,10 +261,20 @@ impl Medium {
         &self.density
     }
 
-    /// Transferred density at `p`.
+    /// Transferred density at `p` (0 where a clip removes the medium).
     #[inline]
     pub fn density(&self, p: Vec3) -> f32 {
+        if let Some(region) = &self.clip_region
+            && !region.contains(p)
+        {
+            return 0.0;
+        }
         self.density.sample(p, self.reconstruction)
+    }
+
+    /// The kept part of the box when the scene clips the volume (`[clip]`).
+    pub fn clip_region(&self) -> Option<&ClipRegion> {
+        self.clip_region.as_ref()
     }
 
     /// Extinction σt at `p` (grey).
@@ -392,6 +412,12 @@ impl Medium {
                 fraction[a][i] = f - lower as f32;
             }
         }
+        if let Some(region) = &self.clip_region {
+            for (i, kept) in in_box.iter_mut().enumerate() {
+                let q = Vec3::new(by_axis[0][i], by_axis[1][i], by_axis[2][i]);
+                *kept &= region.contains(center + q * r);
+            }
+        }
         let empty = self.empty_cells();
         let mut pending = [0u8; N];
         let mut n_pending = 0;
@@ -473,9 +499,16 @@ impl Medium {
         &self.transfer
     }
 
-    /// The ray's parametric interval inside the volume box.
+    /// The ray's parametric interval inside the medium: the volume box, or the kept region
+    /// when the scene clips (convex, so one interval). Every integrator bounds its eye rays,
+    /// shadow rays and photon flights by it, so no collision is sampled where the clip
+    /// removed the medium.
+    #[inline]
     pub fn clip(&self, ray: &Ray) -> Option<(f32, f32)> {
-        self.bounds().intersect(ray)
+        match &self.clip_region {
+            Some(region) => region.interval(ray),
+            None => self.bounds().intersect(ray),
+        }
     }
 
     /// Majorant segments of `ray` over `[t_min, t_max]`.

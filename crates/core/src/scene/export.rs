@@ -71,6 +71,13 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, name: &str) -> Result<MitsubaEx
 /// What Mitsuba's volumetric path tracer cannot render the same way is refused, naming the
 /// key.
 fn check_exportable(scene: &Scene) -> Result<()> {
+    if scene.medium().clip_region().is_some() {
+        return Err(Error::parameter(
+            "clip",
+            "a crop box or clip planes",
+            "no [clip] for the Mitsuba export yet: it writes the whole grid inside a null cube, so Mitsuba would render the unclipped volume; export the scene without [clip]",
+        ));
+    }
     let base = scene.params().sigma.emission.unwrap_or([0.0; 3]);
     let emits = scene.integrator().emission && base != [0.0; 3];
     if emits {

@@ -13,8 +13,8 @@ use super::light::{Light, LightParams, ThreePointParams};
 use super::settings::{FilmParams, IntegratorParams};
 use crate::error::{Error, Result};
 use crate::medium::{
-    DEFAULT_BRICK_SIZE, MappingKind, Medium, MediumSettings, Phase, SigmaMapping, SigmaParams,
-    TransferFunction, TransferParams,
+    ClipParams, DEFAULT_BRICK_SIZE, MappingKind, Medium, MediumSettings, Phase, SigmaMapping,
+    SigmaParams, TransferFunction, TransferParams,
 };
 use crate::volume::{
     ByteOrder, DatasetOverrides, DicomInput, FileRequest, Normalization, PhantomParams, Placement,
@@ -149,6 +149,10 @@ pub struct SceneParams {
     /// Film settings.
     #[serde(default)]
     pub film: FilmParams,
+    /// Clip planes and a crop box (none by default; an empty `[clip]` leaves the scene's
+    /// content address as it was).
+    #[serde(default, skip_serializing_if = "ClipParams::is_empty")]
+    pub clip: ClipParams,
 }
 
 impl SceneParams {
@@ -231,6 +235,7 @@ pub fn validate_params(params: &SceneParams) -> Result<()> {
             "at least one [[lights]] entry or a [three_point] table",
         ));
     }
+    params.clip.validate().map_err(|e| e.within("clip"))?;
     volume_choice(&params.volume)?;
     Ok(())
 }
@@ -546,6 +551,7 @@ pub fn build_medium(params: &SceneParams, volume: &Volume, base: &Path) -> Resul
             phase,
             reconstruction: params.volume.reconstruction,
             brick_size: params.volume.brick_size,
+            clip: params.clip.clone(),
         },
     )
     .map_err(|e| match e {

@@ -33,12 +33,8 @@ impl Backend for Local {
         };
         let summary = pool.install(|| render_cells(exp, run.cells, &plan, &options))?;
         print_summary(&exp.name, &summary);
-        if run.report && full {
-            let report = crate::report::build_report(&run.output)?;
-            eprintln!("report: {}", report.display());
-        }
         Ok(if summary.failed.is_empty() {
-            Outcome::Success
+            Outcome::Finished
         } else {
             Outcome::CellsFailed
         })

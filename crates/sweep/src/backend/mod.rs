@@ -11,7 +11,7 @@ use std::process::ExitCode;
 use anyhow::Result;
 
 pub(crate) use local::Local;
-pub(crate) use slurm::{Slurm, SlurmOptions, compress_ranges, plan_submission, print_jobs};
+pub(crate) use slurm::{Slurm, SlurmOptions, plan_submission, print_jobs};
 
 use crate::plan::{CellSpec, Experiment, Quality};
 use crate::render::Selection;
@@ -33,19 +33,20 @@ pub(crate) struct Run<'a> {
     pub(crate) selection: Selection,
     /// Hide progress bars.
     pub(crate) quiet: bool,
-    /// Build the report when every cell of a full run is done.
-    pub(crate) report: bool,
     /// Time limit per render (a march group or a reference).
     pub(crate) cell_timeout: Option<std::time::Duration>,
     /// References shared with other output folders.
     pub(crate) reference_pool: Option<ReferencePool>,
 }
 
-/// How a run ended.
+/// How a run ended. The `run` verb builds the report from it; a backend never does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Outcome {
-    /// Every selected cell is finished (or was submitted and the caller does not wait).
-    Success,
+    /// Every selected cell is finished here: the caller may build the report.
+    Finished,
+    /// The cells went to a cluster, whose collect job builds the report (whether or not the
+    /// caller waited for it).
+    Submitted,
     /// Some cells failed; their errors are in `failed/`.
     CellsFailed,
 }
@@ -54,7 +55,7 @@ impl Outcome {
     /// The process exit code: 0, or 1 when cells failed.
     pub(crate) fn exit_code(self) -> ExitCode {
         match self {
-            Outcome::Success => ExitCode::SUCCESS,
+            Outcome::Finished | Outcome::Submitted => ExitCode::SUCCESS,
             Outcome::CellsFailed => ExitCode::from(1),
         }
     }

@@ -132,27 +132,6 @@ fn shell_join(args: &[String]) -> String {
         .join(" ")
 }
 
-/// `0-3,7,9-10` for a sorted list of indices.
-pub(crate) fn compress_ranges(v: &[usize]) -> String {
-    let mut parts = Vec::new();
-    let mut i = 0;
-    while i < v.len() {
-        let start = v[i];
-        let mut end = start;
-        while i + 1 < v.len() && v[i + 1] == end + 1 {
-            i += 1;
-            end = v[i];
-        }
-        parts.push(if start == end {
-            format!("{start}")
-        } else {
-            format!("{start}-{end}")
-        });
-        i += 1;
-    }
-    parts.join(",")
-}
-
 /// The cluster's `MaxArraySize` (`scontrol show config`), or Slurm's default 1001.
 pub(crate) fn max_array_size() -> usize {
     Command::new("scontrol")
@@ -278,7 +257,7 @@ impl Scripts<'_> {
         }
         let task_cells: Vec<String> = tasks
             .iter()
-            .map(|t| format!("\"{}\"", compress_ranges(t)))
+            .map(|t| format!("\"{}\"", crate::ranges::compress_ranges(t)))
             .collect();
         let hashes: Vec<String> = tasks
             .iter()
@@ -484,14 +463,8 @@ impl Backend for Slurm {
             .filter(|&i| !is_done(&out.cell(&run.hashes[i])))
             .collect();
         if pending.is_empty() {
-            eprintln!(
-                "{}: all {} cells are finished; building the report locally",
-                exp.name,
-                run.cells.len()
-            );
-            let report = crate::report::build_report(out)?;
-            eprintln!("report: {}", report.display());
-            return Ok(Outcome::Success);
+            eprintln!("{}: all {} cells are finished", exp.name, run.cells.len());
+            return Ok(Outcome::Finished);
         }
         // Cells that failed before get a fresh start.
         for &i in &pending {
@@ -516,11 +489,11 @@ impl Backend for Slurm {
         write_script(&collect, &plan.collect_script)?;
         if self.options.dry_run {
             println!("{}", plan.describe());
-            return Ok(Outcome::Success);
+            return Ok(Outcome::Submitted);
         }
         let jobs = submit(out, &plan, &pending)?;
         if !self.options.wait {
-            return Ok(Outcome::Success);
+            return Ok(Outcome::Submitted);
         }
         wait(out, run.hashes, &pending, &jobs, run.quiet)?;
         Ok(summarize(&exp.name, out, run.hashes, &pending, &jobs[1]))
@@ -582,7 +555,7 @@ fn summarize(
         }
     );
     if failed == 0 && collect_ok {
-        Outcome::Success
+        Outcome::Submitted
     } else {
         Outcome::CellsFailed
     }
@@ -691,13 +664,6 @@ mod tests {
             line.contains(" --reference-pool '/shared/reference pool'"),
             "{line}"
         );
-    }
-
-    #[test]
-    fn ranges_compress() {
-        assert_eq!(compress_ranges(&[0, 1, 2, 5, 7, 8]), "0-2,5,7-8");
-        assert_eq!(compress_ranges(&[]), "");
-        assert_eq!(compress_ranges(&[4]), "4");
     }
 
     #[test]

@@ -5,9 +5,10 @@ use std::process::ExitCode;
 
 use anyhow::Result;
 
-use crate::backend::Run;
+use crate::backend::{Outcome, Run};
 use crate::cli::RunArgs;
 use crate::plan::Experiment;
+use crate::render::Selection;
 use crate::store::{OutputDir, ReferencePool};
 
 /// Plans the experiment and hands it to the chosen backend.
@@ -39,18 +40,26 @@ pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
         .as_deref()
         .map(|pool| checked_pool(pool, &output))
         .transpose()?;
+    let selection = filter.resolve(cells.len())?;
+    let full = selection == Selection::All;
+    let output = OutputDir::new(output);
     let outcome = backend.execute(&Run {
         experiment: &exp,
         cells: &cells,
         hashes: &hashes,
         quality,
-        output: OutputDir::new(output),
-        selection: filter.resolve(cells.len())?,
+        output: output.clone(),
+        selection,
         quiet: args.quiet,
-        report: !args.no_report,
         cell_timeout: args.cell_timeout,
         reference_pool,
     })?;
+    // A partial run (`--cells`) leaves the report to the run that finishes the study; a
+    // cluster's collect job writes its own.
+    if outcome == Outcome::Finished && full && !args.no_report {
+        let report = crate::report::build_report(&output)?;
+        eprintln!("report: {}", report.display());
+    }
     Ok(outcome.exit_code())
 }
 

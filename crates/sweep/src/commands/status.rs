@@ -4,8 +4,9 @@ use std::process::ExitCode;
 
 use anyhow::Result;
 
-use crate::backend::{compress_ranges, print_jobs};
+use crate::backend::print_jobs;
 use crate::cli::StatusArgs;
+use crate::ranges::compress_ranges;
 use crate::store::{
     CellState, OutputDir, cell_is_locked, cell_state, read_plan, recorded_but_absent,
 };

@@ -489,7 +489,7 @@ impl WarningLog {
                 eprintln!(
                     "warning: {} more cell(s) with {kind}: cells {} (each cell's record, cells/<hash>/cell.json, has its warning in full)",
                     cells.len(),
-                    crate::backend::compress_ranges(&cells)
+                    crate::ranges::compress_ranges(&cells)
                 )
             });
         }

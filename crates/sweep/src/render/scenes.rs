@@ -48,11 +48,14 @@ impl Caches {
         let volume = cached(&self.volumes, &volume_key, || {
             load_volume(&params.volume, base, search).map_err(Into::into)
         })?;
+        // Everything `build_medium` reads besides the volume: a key that missed one (the
+        // clip) would hand one cell another's medium.
         let medium_key = format!(
-            "{volume_key}|{}|{}|{}",
+            "{volume_key}|{}|{}|{}|{}",
             serde_json::to_string(&params.transfer)?,
             serde_json::to_string(&params.sigma)?,
-            serde_json::to_string(&params.phase)?
+            serde_json::to_string(&params.phase)?,
+            serde_json::to_string(&params.clip)?
         );
         let medium = cached(&self.media, &medium_key, || {
             build_medium(params, &volume, base).map_err(Into::into)

@@ -111,7 +111,7 @@ pub(crate) fn refuse_to_lose_recorded_cells(out: &OutputDir) -> Result<()> {
         root = out.root().display(),
         n = absent.len(),
         total = plan.cells.len(),
-        ranges = crate::backend::compress_ranges(&absent),
+        ranges = crate::ranges::compress_ranges(&absent),
     )
 }
 

@@ -238,7 +238,6 @@ impl Search<'_> {
             output: self.out.clone(),
             selection: Selection::Cells(pending.clone()),
             quiet: self.opts.quiet,
-            report: false,
             cell_timeout: self.opts.cell_timeout,
             reference_pool: None,
         };
@@ -355,7 +354,6 @@ pub(super) fn render_planned(
         output: out.clone(),
         selection: filter.resolve(cells.len())?,
         quiet: opts.quiet,
-        report: false,
         cell_timeout: opts.cell_timeout,
         reference_pool: None,
     })?;

@@ -342,6 +342,8 @@ impl Importer {
                 lights: Vec::new(),
                 integrator: IntegratorParams::default(),
                 film: Default::default(),
+                // pbrt-v1 has no clip planes.
+                clip: Default::default(),
             },
             volume_seen: false,
             integrator_keys: Vec::new(),
