@@ -2,8 +2,8 @@
 //! claim — a review list, so that no number read off the data is typed by hand.
 //!
 //! A number looks measured when it has a fractional part or a unit of a measurement right
-//! after it (`%`, `×`, seconds, bytes); integers without a unit (counts of settings, years,
-//! section numbers) and numbers right after a setting's name (`nused 150`, `maxdist 0.1`)
+//! after it (`%`, `×`, seconds, bytes); integers without a unit (counts of settings, years),
+//! section numbers (`§7.1.2`) and numbers right after a setting's name (`nused 150`, `maxdist 0.1`)
 //! are not listed, nor anything in code, headings, quotations of the thesis (block quotes)
 //! or links. A number that is not data (a value the thesis printed, an arithmetic fact)
 //! is marked `<!-- given: why -->` after it: the mark covers the numbers since the previous
@@ -136,8 +136,11 @@ pub(crate) fn uncited_numbers(text: &str) -> Vec<Uncited> {
                 // `3.9.1` is a version, not a measurement.
                 let version = text[end..].starts_with('.')
                     && text[end + 1..].starts_with(|c: char| c.is_ascii_digit());
+                // `§7.1.2` is a section of the thesis, not a measurement.
+                let section = text[..start].ends_with('§');
                 if !measured
                     || version
+                    || section
                     || claimed.contains(&start)
                     || excluded.iter().any(|r| r.start <= start && start < r.end)
                     || after_setting(text, start)
@@ -186,7 +189,7 @@ mod tests {
     fn lists_measured_looking_numbers_without_claims() {
         let text = "# C1 at 2.5\n\
                     The error fell by 12 %<!-- = value(s: x) --> and took 3.4 s, within 2 %, 2× sooner.\n\
-                    nused 150 and maxdist 0.1 at 512² with 40 000 photons in 2006.\n\
+                    nused 150 and maxdist 0.1 at 512² with 40 000 photons in 2006 (§7.1.2, §8.2).\n\
                     The thesis measured 1.7–3×<!-- given: thesis §8.2 --> and `0.25` in code, 512 × 512.\n\
                     > thesis quote 0.02\n";
         let listed: Vec<String> = uncited_numbers(text).into_iter().map(|u| u.text).collect();
