@@ -389,8 +389,14 @@ fn case7_a_nan_voxel_is_named_at_load() {
 fn case8_minor_failures_are_clear() {
     let tmp = tempfile::tempdir().unwrap();
     let exp = grid(tmp.path(), "minor");
+    // Each error names the flag and the value given and says what is allowed (clap's
+    // wording for a value parser: `invalid value '10000' for '--threads <N>'`).
     for (flag, value, says) in [
-        ("--threads", "10000", "--threads 10000"),
+        (
+            "--threads",
+            "10000",
+            "'--threads <N>': `10000`: expected a number of worker threads in 1..=1024",
+        ),
         ("--jobs", "0", "--jobs 0"),
     ] {
         let o = output_within(

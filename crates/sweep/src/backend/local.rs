@@ -33,10 +33,8 @@ impl Backend for Local {
         };
         let summary = pool.install(|| render_cells(exp, run.cells, &plan, &options))?;
         print_summary(&exp.name, &summary);
-        Ok(if summary.failed.is_empty() {
-            Outcome::Finished
-        } else {
-            Outcome::CellsFailed
+        Ok(Outcome::Rendered {
+            failed: summary.failed.len(),
         })
     }
 }

@@ -42,21 +42,26 @@ pub(crate) struct Run<'a> {
 /// How a run ended. The `run` verb builds the report from it; a backend never does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Outcome {
-    /// Every selected cell is finished here: the caller may build the report.
-    Finished,
-    /// The cells went to a cluster, whose collect job builds the report (whether or not the
-    /// caller waited for it).
-    Submitted,
-    /// Some cells failed; their errors are in `failed/`.
-    CellsFailed,
+    /// The selected cells were rendered (or found finished) here; `failed` of them failed
+    /// (their errors are in `failed/`). The caller builds the report, which lists them.
+    Rendered {
+        /// Cells that failed.
+        failed: usize,
+    },
+    /// The cells went to a cluster, whose collect job builds the report; `failed` counts
+    /// the cells (or the collect job) that failed when the caller waited.
+    Submitted {
+        /// Cells, or the collect job, that failed.
+        failed: usize,
+    },
 }
 
 impl Outcome {
     /// The process exit code: 0, or 1 when cells failed.
     pub(crate) fn exit_code(self) -> ExitCode {
         match self {
-            Outcome::Finished | Outcome::Submitted => ExitCode::SUCCESS,
-            Outcome::CellsFailed => ExitCode::from(1),
+            Outcome::Rendered { failed: 0 } | Outcome::Submitted { failed: 0 } => ExitCode::SUCCESS,
+            _ => ExitCode::from(1),
         }
     }
 }

@@ -464,7 +464,7 @@ impl Backend for Slurm {
             .collect();
         if pending.is_empty() {
             eprintln!("{}: all {} cells are finished", exp.name, run.cells.len());
-            return Ok(Outcome::Finished);
+            return Ok(Outcome::Rendered { failed: 0 });
         }
         // Cells that failed before get a fresh start.
         for &i in &pending {
@@ -489,11 +489,11 @@ impl Backend for Slurm {
         write_script(&collect, &plan.collect_script)?;
         if self.options.dry_run {
             println!("{}", plan.describe());
-            return Ok(Outcome::Submitted);
+            return Ok(Outcome::Submitted { failed: 0 });
         }
         let jobs = submit(out, &plan, &pending)?;
         if !self.options.wait {
-            return Ok(Outcome::Submitted);
+            return Ok(Outcome::Submitted { failed: 0 });
         }
         wait(out, run.hashes, &pending, &jobs, run.quiet)?;
         Ok(summarize(&exp.name, out, run.hashes, &pending, &jobs[1]))
@@ -554,10 +554,8 @@ fn summarize(
             "did not write a report"
         }
     );
-    if failed == 0 && collect_ok {
-        Outcome::Submitted
-    } else {
-        Outcome::CellsFailed
+    Outcome::Submitted {
+        failed: failed + usize::from(!collect_ok),
     }
 }
 

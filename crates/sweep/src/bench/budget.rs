@@ -38,7 +38,8 @@ struct Case {
     cpu: CpuSplit,
     classes: Vec<Class>,
     sources: Vec<SourceRow>,
-    /// The sources' sum over production's variance (1: the budget closes).
+    /// The sources' sum over production's variance: 1 by construction (the footprint is
+    /// the remainder), a check of the arithmetic, not a measurement.
     closure: f64,
     /// Each rung of the ladder as a route: what it removes, at what CPU cost.
     routes: Vec<Route>,

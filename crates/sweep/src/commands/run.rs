@@ -55,8 +55,9 @@ pub(crate) fn run(args: &RunArgs) -> Result<ExitCode> {
         reference_pool,
     })?;
     // A partial run (`--cells`) leaves the report to the run that finishes the study; a
-    // cluster's collect job writes its own.
-    if outcome == Outcome::Finished && full && !args.no_report {
+    // cluster's collect job writes its own. A local run with failed cells still gets its
+    // report, which lists them.
+    if matches!(outcome, Outcome::Rendered { .. }) && full && !args.no_report {
         let report = crate::report::build_report(&output)?;
         eprintln!("report: {}", report.display());
     }
