@@ -435,6 +435,62 @@ fn bench_reference_compares_the_trackers_against_a_pooled_reference() {
 }
 
 #[test]
+fn bench_reference_races_the_routes_beside_the_trackers() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("s.toml");
+    std::fs::write(&scene, BENCH_SCENE).unwrap();
+    let json = tmp.path().join("b.json");
+    let out = sweep()
+        .args(["bench", "--reference", "--routes", "--sigma-t", "10"])
+        .args(["--passes", "4", "--seeds", "2", "--reference-passes", "16"])
+        .arg("--scene")
+        .arg(&scene)
+        .arg("--reference-pool")
+        .arg(tmp.path().join("pool"))
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let routes = report["cases"][0]["routes"].as_array().unwrap();
+    let names: Vec<&str> = routes
+        .iter()
+        .map(|r| r["route"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "stratified eye samples",
+            "visibility-weighted light choice",
+            "both"
+        ]
+    );
+    // A scene this small takes less CPU time than the clock resolves, so only the errors
+    // (every seed rendered against the reference) and a finite ratio are checked here.
+    for r in routes {
+        let seeds = r["seeds"].as_array().unwrap();
+        assert_eq!(seeds.len(), 2, "{r}");
+        for seed in seeds {
+            let mse = seed["mse"].as_f64().unwrap();
+            assert!(mse.is_finite() && mse > 0.0, "{r}");
+        }
+        assert!(
+            r["speedup_over_weighted_at_001"]
+                .as_f64()
+                .unwrap()
+                .is_finite(),
+            "{r}"
+        );
+    }
+}
+
+#[test]
 fn bench_reference_needs_the_thesis_mapping() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = tmp.path().join("s.toml");

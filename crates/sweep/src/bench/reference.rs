@@ -221,29 +221,25 @@ fn measure_case(
     );
     let reference = pooled_reference(args, &reference_params, base, &search, pool)?;
     let mut trackers = Vec::new();
-    for tracker in TRACKERS {
-        let runs = (0..u64::from(args.seeds))
+    // Every seed's render of one tracker (and route), each scene built and prepared first.
+    let seed_runs = |tracker: Tracker, route: Option<volphot::Route>| {
+        (0..u64::from(args.seeds))
             .map(|k| {
                 let p = with(params, tracker, params.integrator.seed + 1 + k);
                 let scene = Scene::from_params(&p, base, &search)?;
                 scene.medium().prepare();
-                measure_render(&scene, args.passes, &reference)
+                measure_render(&scene, args.passes, route, &reference)
             })
-            .collect::<Result<Vec<_>>>()?;
-        trackers.push(summarise(tracker, args.passes, runs));
+            .collect::<Result<Vec<_>>>()
+    };
+    for tracker in TRACKERS {
+        trackers.push(summarise(tracker, args.passes, seed_runs(tracker, None)?));
     }
     let at = |t: &TrackerResult| t.cpu_to_rmse.last().map_or(f64::NAN, |r| r.cpu_s);
     let mut routes = Vec::new();
     if args.routes {
         for route in volphot::Route::ALL.into_iter().skip(1) {
-            let runs = (0..u64::from(args.seeds))
-                .map(|k| {
-                    let p = with(params, Tracker::Weighted, params.integrator.seed + 1 + k);
-                    let scene = Scene::from_params(&p, base, &search)?;
-                    scene.medium().prepare();
-                    measure_route(&scene, args.passes, route, &reference)
-                })
-                .collect::<Result<Vec<_>>>()?;
+            let runs = seed_runs(Tracker::Weighted, Some(route))?;
             let r = summarise(Tracker::Weighted, args.passes, runs);
             routes.push(RouteResult {
                 route: route.name(),
@@ -326,39 +322,26 @@ fn pooled_reference(
     })
 }
 
-/// One render of `passes` passes, its first pass (with any pilot) timed apart.
-fn measure_render(scene: &Scene, passes: u32, reference: &Reference) -> Result<SeedRun> {
+/// One render, timed: the first pass apart (it runs the weighted tracker's pilot) from the
+/// rest, and its error against the reference. With a `route`, the weighted tracker along
+/// that route to a faster reference; without, the scene's own tracker.
+fn measure_render(
+    scene: &Scene,
+    passes: u32,
+    route: Option<volphot::Route>,
+    reference: &Reference,
+) -> Result<SeedRun> {
     let cpu = || process_cpu_seconds().context("CPU time is not available here");
     let camera = scene.camera();
     let mut acc = ReferenceAccumulator::new(camera.width() as usize, camera.height() as usize);
+    let add = |acc: &mut ReferenceAccumulator, n: u32| match route {
+        Some(route) => acc.add_passes_route(scene, n, route, &Control::none()),
+        None => acc.add_passes(scene, n, &Control::none()),
+    };
     let start = cpu()?;
-    acc.add_passes(scene, 1, &Control::none())?;
+    add(&mut acc, 1)?;
     let first = cpu()?;
-    acc.add_passes(scene, passes - 1, &Control::none())?;
-    let end = cpu()?;
-    let image = acc.film().total();
-    Ok(SeedRun {
-        seed: scene.integrator().seed,
-        first_pass_cpu_s: first - start,
-        other_passes_cpu_s: end - first,
-        mse: mse_against_noisy_reference(&image, &reference.image, &reference.variance),
-    })
-}
-
-/// One render along a route, timed as [`measure_render`] times a tracker's.
-fn measure_route(
-    scene: &Scene,
-    passes: u32,
-    route: volphot::Route,
-    reference: &Reference,
-) -> Result<SeedRun> {
-    let cpu = || process_cpu_seconds().context("no process CPU time on this system");
-    let camera = scene.camera();
-    let mut acc = ReferenceAccumulator::new(camera.width() as usize, camera.height() as usize);
-    let start = cpu()?;
-    acc.add_passes_route(scene, 1, route, &Control::none())?;
-    let first = cpu()?;
-    acc.add_passes_route(scene, passes - 1, route, &Control::none())?;
+    add(&mut acc, passes - 1)?;
     let end = cpu()?;
     let image = acc.film().total();
     Ok(SeedRun {
