@@ -472,7 +472,7 @@ fn bench_reference_races_the_routes_beside_the_trackers() {
         ]
     );
     // A scene this small takes less CPU time than the clock resolves, so only the errors
-    // (every seed rendered against the reference) and a finite ratio are checked here.
+    // (every seed rendered against the reference) and the ratio's presence are checked here.
     for r in routes {
         let seeds = r["seeds"].as_array().unwrap();
         assert_eq!(seeds.len(), 2, "{r}");
@@ -480,13 +480,10 @@ fn bench_reference_races_the_routes_beside_the_trackers() {
             let mse = seed["mse"].as_f64().unwrap();
             assert!(mse.is_finite() && mse > 0.0, "{r}");
         }
-        assert!(
-            r["speedup_over_weighted_at_001"]
-                .as_f64()
-                .unwrap()
-                .is_finite(),
-            "{r}"
-        );
+        // A ratio of two unresolved CPU times is 0/0, which JSON writes as null.
+        let speedup = &r["speedup_over_weighted_at_001"];
+        assert!(speedup.is_f64() || speedup.is_null(), "{r}");
+        assert_eq!(r["tracker"], "weighted", "{r}");
     }
 }
 

@@ -57,16 +57,13 @@ struct Case {
     routes: Vec<RouteResult>,
 }
 
-/// A route's renders of a case.
+/// A route's renders of a case: the weighted tracker's renders along the route, and its
+/// speed against the plain weighted tracker's.
 #[derive(Debug, Serialize)]
 struct RouteResult {
     route: &'static str,
-    passes: u32,
-    seeds: Vec<SeedRun>,
-    pilot_cpu_s: f64,
-    cpu_per_pass_s: f64,
-    rmse: f64,
-    cpu_to_rmse: Vec<CpuTo>,
+    #[serde(flatten)]
+    renders: TrackerResult,
     /// Weighted's CPU time to RMSE 0.01 over the route's.
     speedup_over_weighted_at_001: f64,
 }
@@ -243,13 +240,8 @@ fn measure_case(
             let r = summarise(Tracker::Weighted, args.passes, runs);
             routes.push(RouteResult {
                 route: route.name(),
-                passes: r.passes,
                 speedup_over_weighted_at_001: at(&trackers[1]) / at(&r),
-                seeds: r.seeds,
-                pilot_cpu_s: r.pilot_cpu_s,
-                cpu_per_pass_s: r.cpu_per_pass_s,
-                rmse: r.rmse,
-                cpu_to_rmse: r.cpu_to_rmse,
+                renders: r,
             });
         }
     }
@@ -408,12 +400,12 @@ fn print_case(case: &Case) {
         println!(
             "  {:<9} {:>6} {:>9.2} {:>11.3} {:>10.3e} {:>13.1} {:>13.1}   {:.2}× weighted's speed ({})",
             "route",
-            r.passes,
-            r.pilot_cpu_s,
-            r.cpu_per_pass_s,
-            r.rmse,
-            r.cpu_to_rmse[0].cpu_s,
-            r.cpu_to_rmse[1].cpu_s,
+            r.renders.passes,
+            r.renders.pilot_cpu_s,
+            r.renders.cpu_per_pass_s,
+            r.renders.rmse,
+            r.renders.cpu_to_rmse[0].cpu_s,
+            r.renders.cpu_to_rmse[1].cpu_s,
             r.speedup_over_weighted_at_001,
             r.route
         );
