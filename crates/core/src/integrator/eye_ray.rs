@@ -177,6 +177,10 @@ impl Marcher<'_> {
             && self.shadow_caches.is_none()
             && stride > 0;
         for (li, light) in self.lights.iter().enumerate() {
+            if !light.is_delta() {
+                self.add_single_sampled(li, wo, rng, acc);
+                continue;
+            }
             if adaptive {
                 acc.tau.clear();
                 acc.tau.resize(n, 0.0);
@@ -206,6 +210,33 @@ impl Marcher<'_> {
                         self.medium.albedo_at(sample.x) * sample.sigma_t * direct * sample.weight;
                 }
             }
+        }
+    }
+
+    /// Single scattering from a light with extent (area, environment): at every sample,
+    /// `light_samples` directions drawn from the light, each with its own shadow ray (a
+    /// sampled direction changes from step to step, so the optical depths cannot be
+    /// interpolated along the ray as a delta light's are, nor cached at lattice nodes).
+    fn add_single_sampled(&self, li: usize, wo: Vec3, rng: &mut Rng, acc: &mut Accumulator) {
+        let light = &self.lights[li];
+        let n = self.settings.light_samples.max(1);
+        let per_sample = 1.0 / n as f32;
+        for sample in &acc.samples {
+            let mut direct = Vec3::ZERO;
+            for _ in 0..n {
+                let Some(inc) = light.sample_incident(sample.x, rng) else {
+                    continue;
+                };
+                acc.counters.shadow += 1;
+                let tr = self.shadow_transmittance(li, sample.x, inc.to_light, inc.distance, rng);
+                if tr > 0.0 {
+                    direct += inc.radiance * (tr * self.medium.phase().eval(-inc.to_light, wo));
+                }
+            }
+            acc.single += self.medium.albedo_at(sample.x)
+                * sample.sigma_t
+                * direct
+                * (sample.weight * per_sample);
         }
     }
 
@@ -321,7 +352,8 @@ impl Marcher<'_> {
         rng: &mut Rng,
     ) -> f32 {
         let light = &self.lights[light_index];
-        if let Some(caches) = &self.shadow_caches {
+        // The cache holds each lattice node's depth towards one point: delta lights only.
+        if let Some(caches) = self.shadow_caches.as_ref().filter(|_| light.is_delta()) {
             return caches[light_index].transmittance(self.medium, light, p);
         }
         let ray = Ray {

@@ -334,11 +334,8 @@ pub(crate) fn walk_path(
     out: &mut PathCounters,
 ) {
     let mut rng = Rng::stream(s.seed, Domain::Photons, photon.index);
-    let mut ray = Ray::new(
-        photon.light.position(),
-        photon.light.sample_direction(&mut rng),
-    );
-    let mut power = photon.power;
+    let (mut ray, relative_power) = photon.light.emit(&mut rng);
+    let mut power = photon.power * relative_power;
     let mut scattered = 0u32;
     let mut interactions = 0u32;
     while let Some((t0, t1)) = medium.clip(&ray) {
@@ -400,12 +397,9 @@ mod tests {
     fn point(intensity: f32) -> Light {
         Light::create(&LightParams {
             kind: crate::scene::LightKind::Point,
-            position: [0.5, 0.5, 3.0],
-            target: None,
-            intensity: Intensity::Grey(intensity),
-            cone_angle: None,
-            beam_width: None,
-            falloff: None,
+            position: Some([0.5, 0.5, 3.0]),
+            intensity: Some(Intensity::Grey(intensity)),
+            ..LightParams::default()
         })
         .unwrap()
     }

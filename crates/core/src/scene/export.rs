@@ -25,7 +25,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
-use super::{LightKind, Scene, SceneParams};
+use super::{AreaLight, AreaShape, Light, LightKind, Scene, SceneParams};
 use crate::error::{Error, Result};
 use crate::math::Aabb;
 use crate::medium::Medium;
@@ -39,6 +39,8 @@ pub struct MitsubaExport {
     pub scene: PathBuf,
     /// The density grid it reads.
     pub grid: PathBuf,
+    /// The environment maps it reads (PFM), one per environment light.
+    pub maps: Vec<PathBuf>,
 }
 
 /// Writes `scene` for Mitsuba 3 into `dir` as `NAME.xml` and `NAME.vol`.
@@ -64,8 +66,32 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, name: &str) -> Result<MitsubaEx
     let grid = dir.join(format!("{name}.vol"));
     let xml = dir.join(format!("{name}.xml"));
     write_atomic(&grid, &vol_bytes(scene))?;
-    write_atomic(&xml, scene_xml(scene, &format!("{name}.vol")).as_bytes())?;
-    Ok(MitsubaExport { scene: xml, grid })
+    let mut env_files = Vec::new();
+    let mut maps = Vec::new();
+    for (i, light) in scene.lights().iter().enumerate() {
+        env_files.push(match light {
+            Light::Environment(e) => {
+                // The map exactly as volphot samples it (a sky's bake, a file's texels,
+                // times `scale`), as PFM.
+                let file = format!("{name}-env{i}.pfm");
+                let map = e.map();
+                let texels: Vec<Vec3> = map.texels().iter().map(|t| *t * e.scale()).collect();
+                crate::film::write_pfm(&dir.join(&file), map.width(), map.height(), &texels)?;
+                maps.push(dir.join(&file));
+                Some(file)
+            }
+            _ => None,
+        });
+    }
+    write_atomic(
+        &xml,
+        scene_xml(scene, &format!("{name}.vol"), &env_files).as_bytes(),
+    )?;
+    Ok(MitsubaExport {
+        scene: xml,
+        grid,
+        maps,
+    })
 }
 
 /// What Mitsuba's volumetric path tracer cannot render the same way is refused, naming the
@@ -92,6 +118,15 @@ fn check_exportable(scene: &Scene) -> Result<()> {
             && s.falloff_shape() != super::SpotFalloff::Linear
         {
             return Err(pbrt_falloff_refused(i, s, light));
+        }
+        if let Light::Environment(e) = light
+            && e.sun().is_some()
+        {
+            return Err(Error::parameter(
+                format!("lights[{i}].sun_direction"),
+                "(a sun)",
+                "no sun for the Mitsuba export: Mitsuba has no emitter for a disc of the sky; export the sky without its sun",
+            ));
         }
     }
     if scene.medium().has_colour() {
@@ -164,14 +199,15 @@ fn triple(v: [f32; 3]) -> String {
 }
 
 /// The scene as Mitsuba 3 XML.
-fn scene_xml(scene: &Scene, grid_file: &str) -> String {
+fn scene_xml(scene: &Scene, grid_file: &str, env_files: &[Option<String>]) -> String {
     let mut x = String::new();
-    integrator_xml(&mut x, scene.params());
+    let extended = scene.lights().iter().any(|l| !l.is_delta());
+    integrator_xml(&mut x, scene.params(), extended);
     sensor_xml(&mut x, scene);
     medium_xml(&mut x, scene.medium(), grid_file);
     bounding_cube_xml(&mut x, scene.medium().bounds());
-    for light in scene.lights() {
-        emitter_xml(&mut x, &light.params());
+    for (i, light) in scene.lights().iter().enumerate() {
+        emitter_xml(&mut x, light, env_files[i].as_deref());
     }
     let _ = writeln!(x, "</scene>");
     x
@@ -179,7 +215,7 @@ fn scene_xml(scene: &Scene, grid_file: &str) -> String {
 
 /// The scene's opening, its defaults (`spp`, `max_depth`, `seed`) and the `volpath`
 /// integrator.
-fn integrator_xml(x: &mut String, p: &SceneParams) {
+fn integrator_xml(x: &mut String, p: &SceneParams, hide_emitters: bool) {
     let _ = writeln!(x, "<scene version=\"3.0.0\">");
     let _ = writeln!(
         x,
@@ -202,6 +238,13 @@ fn integrator_xml(x: &mut String, p: &SceneParams) {
         x,
         "        <integer name=\"max_depth\" value=\"$max_depth\"/>"
     );
+    if hide_emitters {
+        // volphot's camera rays do not see area lights or the environment.
+        let _ = writeln!(
+            x,
+            "        <boolean name=\"hide_emitters\" value=\"true\"/>"
+        );
+    }
     let _ = writeln!(x, "    </integrator>");
 }
 
@@ -337,29 +380,97 @@ fn sensor_xml(x: &mut String, scene: &Scene) {
     let _ = writeln!(x, "    </sensor>");
 }
 
-fn emitter_xml(x: &mut String, light: &super::LightParams) {
-    let intensity = triple(light.intensity.rgb().to_array());
-    match light.kind {
-        LightKind::Point => {
-            let _ = writeln!(x, "    <emitter type=\"point\">");
+fn emitter_xml(x: &mut String, light: &Light, env_file: Option<&str>) {
+    match light {
+        Light::Point(_) | Light::Spot(_) => delta_emitter_xml(x, &light.params()),
+        Light::Area(a) => area_emitter_xml(x, a),
+        Light::Environment(e) => {
+            let _ = writeln!(x, "    <emitter type=\"envmap\">");
+            let file = env_file.expect("an environment's map file");
+            let _ = writeln!(x, "        <string name=\"filename\" value=\"{file}\"/>");
             let _ = writeln!(
                 x,
-                "        <point name=\"position\" value=\"{}\"/>",
-                triple(light.position)
+                "        <string name=\"filter_type\" value=\"nearest\"/>"
             );
+            let _ = writeln!(x, "        <transform name=\"to_world\">");
+            let [c0, c1, c2] = e.to_world_columns();
+            let _ = writeln!(
+                x,
+                "            <matrix value=\"{} 0  {} 0  {} 0  0 0 0 1\"/>",
+                row(c0.x, c1.x, c2.x),
+                row(c0.y, c1.y, c2.y),
+                row(c0.z, c1.z, c2.z)
+            );
+            let _ = writeln!(x, "        </transform>");
+            let _ = writeln!(x, "    </emitter>");
         }
+    }
+}
+
+/// One row of a 3×3 block of a Mitsuba `matrix` value.
+fn row(a: f32, b: f32, c: f32) -> String {
+    format!("{a} {b} {c}")
+}
+
+/// A rectangle (`[-1, 1]²`, normal `+z` in Mitsuba) or disk (unit radius) shape placed by
+/// a matrix, with an `area` emitter and a `null` BSDF: volphot's area lights neither block
+/// nor reflect light.
+fn area_emitter_xml(x: &mut String, a: &AreaLight) {
+    let (shape, [sx, sy]) = match a.shape() {
+        AreaShape::Rect => ("rectangle", [a.extent()[0] / 2.0, a.extent()[1] / 2.0]),
+        AreaShape::Disc => ("disk", [a.extent()[0], a.extent()[0]]),
+    };
+    let (u, v, n, c) = (
+        a.width_axis() * sx,
+        a.height_axis() * sy,
+        a.normal(),
+        a.centre(),
+    );
+    let _ = writeln!(x, "    <shape type=\"{shape}\">");
+    let _ = writeln!(x, "        <transform name=\"to_world\">");
+    let _ = writeln!(
+        x,
+        "            <matrix value=\"{} {}  {} {}  {} {}  0 0 0 1\"/>",
+        row(u.x, v.x, n.x),
+        c.x,
+        row(u.y, v.y, n.y),
+        c.y,
+        row(u.z, v.z, n.z),
+        c.z
+    );
+    let _ = writeln!(x, "        </transform>");
+    let _ = writeln!(x, "        <bsdf type=\"null\"/>");
+    let _ = writeln!(x, "        <emitter type=\"area\">");
+    let _ = writeln!(
+        x,
+        "            <rgb name=\"radiance\" value=\"{}\"/>",
+        triple(a.radiance().to_array())
+    );
+    let _ = writeln!(x, "        </emitter>");
+    let _ = writeln!(x, "    </shape>");
+}
+
+fn delta_emitter_xml(x: &mut String, light: &super::LightParams) {
+    let intensity = triple(
+        light
+            .intensity
+            .expect("a delta light's intensity")
+            .rgb()
+            .to_array(),
+    );
+    let position = light.position.expect("a delta light's position");
+    match light.kind {
         LightKind::Spot => {
-            let position = Vec3::from(light.position);
             let target = Vec3::from(light.target.expect("a spot light has a target"));
             // Any up vector not parallel to the axis: Mitsuba's spot is symmetric about it.
-            let axis = (target - position).normalize();
+            let axis = (target - Vec3::from(position)).normalize();
             let up = if axis.z.abs() < 0.9 { Vec3::Z } else { Vec3::X };
             let _ = writeln!(x, "    <emitter type=\"spot\">");
             let _ = writeln!(x, "        <transform name=\"to_world\">");
             let _ = writeln!(
                 x,
                 "            <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>",
-                triple(light.position),
+                triple(position),
                 triple(target.to_array()),
                 triple(up.to_array())
             );
@@ -368,6 +479,14 @@ fn emitter_xml(x: &mut String, light: &super::LightParams) {
             let beam = light.beam_width.expect("a spot light has a beam width");
             let _ = writeln!(x, "        <float name=\"cutoff_angle\" value=\"{cone}\"/>");
             let _ = writeln!(x, "        <float name=\"beam_width\" value=\"{beam}\"/>");
+        }
+        _ => {
+            let _ = writeln!(x, "    <emitter type=\"point\">");
+            let _ = writeln!(
+                x,
+                "        <point name=\"position\" value=\"{}\"/>",
+                triple(position)
+            );
         }
     }
     let _ = writeln!(x, "        <rgb name=\"intensity\" value=\"{intensity}\"/>");
@@ -539,5 +658,49 @@ mod tests {
             "lacks the whole light's change {whole}: {err}"
         );
         assert!(!dir.path().join("x.xml").exists(), "nothing written");
+    }
+
+    /// Area lights become shapes with an `area` emitter and a `null` BSDF placed by a
+    /// matrix whose columns are the half extents and the normal; an environment becomes an
+    /// `envmap` reading a PFM of exactly the texels volphot samples, with `to_world`'s
+    /// columns the map's axes; camera rays hide them both, as volphot's do.
+    #[test]
+    fn area_and_environment_lights_export_as_mitsuba_emitters() {
+        let scene = test_util::scene(
+            "[volume]\nphantom = { name = \"sphere\", resolution = [8, 8, 8] }\n[[lights]]\ntype = \"rect\"\nposition = [0.5, 0.5, 2]\nnormal = [0, 0, -1]\nup = [0, 1, 0]\nsize = [2, 1]\nradiance = [1, 2, 3]\n[[lights]]\ntype = \"disc\"\nposition = [3, 0.5, 0.5]\ntarget = [0.5, 0.5, 0.5]\nradius = 0.25\nradiance = 4\n[[lights]]\ntype = \"sky\"\nzenith = 1\nhorizon = 0.5\nground = 0.1\nrotation = 90\n",
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let files = export_mitsuba(&scene, dir.path(), "peer").unwrap();
+        let xml = std::fs::read_to_string(&files.scene).unwrap();
+        assert!(
+            xml.contains("<boolean name=\"hide_emitters\" value=\"true\"/>"),
+            "{xml}"
+        );
+        assert!(xml.contains("<shape type=\"rectangle\">"), "{xml}");
+        assert!(xml.contains("<shape type=\"disk\">"), "{xml}");
+        // The two lights' and the medium's boundary cube's.
+        assert_eq!(xml.matches("<bsdf type=\"null\"/>").count(), 3);
+        assert!(
+            xml.contains("<rgb name=\"radiance\" value=\"1, 2, 3\"/>"),
+            "{xml}"
+        );
+        // The rectangle: width along −x (height × normal), height along y, normal −z.
+        assert!(
+            xml.contains("<matrix value=\"-1 0 0 0.5  0 0.5 0 0.5  0 0 -1 2  0 0 0 1\"/>"),
+            "{xml}"
+        );
+        assert!(xml.contains("<emitter type=\"envmap\">"), "{xml}");
+        assert_eq!(files.maps, vec![dir.path().join("peer-env2.pfm")]);
+        let Light::Environment(env) = &scene.lights()[2] else {
+            panic!("the sky")
+        };
+        let (w, h, texels) = crate::film::read_pfm(&files.maps[0]).unwrap();
+        assert_eq!((w, h), (env.map().width(), env.map().height()));
+        assert_eq!(texels, env.map().texels());
+        // The spot-only export is unchanged: no hide_emitters there.
+        let (_dir, _, spot) = exported();
+        let spot_xml = std::fs::read_to_string(&spot.scene).unwrap();
+        assert!(!spot_xml.contains("hide_emitters"));
+        assert!(spot.maps.is_empty());
     }
 }

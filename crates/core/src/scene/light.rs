@@ -1,4 +1,6 @@
-//! Point and spot lights, and the thesis's three-point preset (§8.2).
+//! Lights: point and spot lights, the thesis's three-point preset (§8.2), and the lights
+//! cinematic volume renderers use — rectangle and disc area lights ([`super::area`]) and
+//! an environment map or procedural sky ([`super::environment`]) — behind one enum.
 //!
 //! Conventions (as in common physically based renderers):
 //! * point light: radiant intensity `I` (W/sr, RGB) in every direction; irradiance `I/r²`;
@@ -11,28 +13,36 @@
 //!   `Φ = 2π·I·((1 − cos θw) + (cos θw − cos θc)/5)`.
 
 use std::f32::consts::PI;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::area::{AreaLight, AreaShape};
 use super::camera::Camera;
+use super::environment::{EnvironmentLight, EnvironmentSource, SkyColours, Sun};
+use super::envmap::EnvironmentMap;
 use crate::error::{Error, Result};
-use crate::math::{Aabb, Frame, Rng, uniform_sphere};
+use crate::math::{Aabb, Frame, Ray, Rng, uniform_sphere};
 
-/// One light as written in a scene's `[[lights]]` array.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// One light as written in a scene's `[[lights]]` array. Which keys a light takes depends
+/// on its `type` (a key given to a light that has no use for it is an error naming it).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LightParams {
-    /// `spot` or `point`.
+    /// `spot`, `point`, `rect`, `disc`, `environment` or `sky`.
     #[serde(rename = "type")]
     pub kind: LightKind,
-    /// Position.
-    pub position: [f32; 3],
-    /// `spot`: the point the axis aims at.
+    /// `spot`, `point`: the light's position; `rect`, `disc`: the centre.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position: Option<[f32; 3]>,
+    /// `spot`: the point the axis aims at; `rect`, `disc`: the point the normal faces.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target: Option<[f32; 3]>,
-    /// Radiant intensity on the axis, W/sr: one number (white) or RGB.
-    pub intensity: Intensity,
+    /// `spot`, `point`: radiant intensity on the axis, W/sr: one number (white) or RGB.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub intensity: Option<Intensity>,
     /// `spot`: angle from the axis to the cut-off, degrees.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cone_angle: Option<f32>,
@@ -42,6 +52,49 @@ pub struct LightParams {
     /// `spot`: the shape of the falloff between `beam_width` and `cone_angle`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub falloff: Option<SpotFalloff>,
+    /// `rect`, `disc`: the emitting side's normal (instead of `target`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal: Option<[f32; 3]>,
+    /// `rect`: `[width, height]`, world units.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<[f32; 2]>,
+    /// `disc`: the radius, world units.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f32>,
+    /// `rect`, `disc`: emitted radiance, W/m²/sr: one number or RGB.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radiance: Option<Intensity>,
+    /// `rect`: the direction the rectangle's height follows; `environment`, `sky`: the
+    /// map's zenith (default `[0, 0, 1]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub up: Option<[f32; 3]>,
+    /// `environment`: the HDR map (EXR, PFM or Radiance `.hdr`), relative to the scene file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<PathBuf>,
+    /// `environment`, `sky`: multiplies the map's radiance (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<Intensity>,
+    /// `environment`, `sky`: turns the map about `up`, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<f32>,
+    /// `sky`: radiance straight up.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zenith: Option<Intensity>,
+    /// `sky`: radiance at the horizon.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub horizon: Option<Intensity>,
+    /// `sky`: radiance straight down.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ground: Option<Intensity>,
+    /// `sky`: the direction towards the sun (no sun without it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sun_direction: Option<[f32; 3]>,
+    /// `sky`: the sun disc's radiance.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sun_radiance: Option<Intensity>,
+    /// `sky`: the sun's angular diameter, degrees (default 0.53, the real sun's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sun_angle: Option<f32>,
 }
 
 /// How a spot light's intensity falls from the beam width to the cone angle.
@@ -56,14 +109,61 @@ pub enum SpotFalloff {
     Pbrt,
 }
 
-/// The kind of a light (`type = "spot"` or `"point"` in a scene).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+/// The kind of a light (`type = "spot"`, `"point"`, `"rect"`, `"disc"`, `"environment"`
+/// or `"sky"` in a scene).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum LightKind {
     /// A spot light: a cone with a linear falloff in angle.
     Spot,
     /// A point light radiating equally in every direction.
+    #[default]
     Point,
+    /// A one-sided rectangular area light.
+    Rect,
+    /// A one-sided disc area light.
+    Disc,
+    /// An environment from an HDR map.
+    Environment,
+    /// A procedural sky (gradient and optional sun).
+    Sky,
+}
+
+impl LightKind {
+    /// The keys a light of this kind takes besides `type`.
+    fn keys(self) -> &'static [&'static str] {
+        match self {
+            LightKind::Point => &["position", "intensity"],
+            LightKind::Spot => &[
+                "position",
+                "target",
+                "intensity",
+                "cone_angle",
+                "beam_width",
+                "falloff",
+            ],
+            LightKind::Rect => &["position", "target", "normal", "up", "size", "radiance"],
+            LightKind::Disc => &["position", "target", "normal", "radius", "radiance"],
+            LightKind::Environment => &["file", "scale", "up", "rotation"],
+            LightKind::Sky => &[
+                "scale",
+                "up",
+                "rotation",
+                "zenith",
+                "horizon",
+                "ground",
+                "sun_direction",
+                "sun_radiance",
+                "sun_angle",
+            ],
+        }
+    }
+
+    /// Whether building the light needs the scene (the volume's bounds, the scene file's
+    /// folder): the environments.
+    pub fn needs_scene(self) -> bool {
+        matches!(self, LightKind::Environment | LightKind::Sky)
+    }
 }
 
 /// An intensity given as one grey number or an RGB triple.
@@ -109,13 +209,28 @@ pub struct PointLight {
     intensity: Vec3,
 }
 
-/// A light source.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A light source: every integrator asks each light the same questions (is it a delta
+/// light, what arrives at a point — sampled for lights with extent —, with which pdf, its
+/// power, an emitted photon).
+#[derive(Debug, Clone, PartialEq)]
 pub enum Light {
     /// Spot light.
     Spot(SpotLight),
     /// Point light.
     Point(PointLight),
+    /// Rectangle or disc area light.
+    Area(AreaLight),
+    /// Environment map or procedural sky (shared: a map can be large).
+    Environment(Arc<EnvironmentLight>),
+}
+
+/// What building a light may need from its scene.
+#[derive(Debug, Clone, Copy)]
+pub struct LightContext<'a> {
+    /// The volume's bounds (an environment's photons start on its bounding sphere).
+    pub bounds: &'a Aabb,
+    /// The scene file's folder (relative `file` paths).
+    pub base: &'a Path,
 }
 
 /// Light arriving at a point from one light, before any attenuation by the medium.
@@ -125,8 +240,12 @@ pub struct Incident {
     pub to_light: Vec3,
     /// Distance to the light.
     pub distance: f32,
-    /// Irradiance-like term `I·falloff/r²` (W/m² per unit solid angle of the phase function).
+    /// Irradiance-like term `I·falloff/r²` for a delta light (W/m² per unit solid angle
+    /// of the phase function); for a sampled light the radiance divided by the solid-angle
+    /// pdf — either way `σs·p·radiance·T` estimates single scattering.
     pub radiance: Vec3,
+    /// The solid-angle pdf of the sampled direction (`∞` for a delta light).
+    pub pdf: f32,
 }
 
 /// The largest radiant intensity a light may have (W/sr). Its power is summed over
@@ -152,39 +271,36 @@ fn validate_intensity(i: Vec3) -> Result<()> {
 }
 
 impl Light {
-    /// Builds a light from its parameters; errors name the key.
+    /// Builds a light that needs nothing from its scene (spot, point, area lights); the
+    /// environments are built by [`Self::create_in`]. Errors name the key.
     pub fn create(params: &LightParams) -> Result<Self> {
-        let position = Vec3::from(params.position);
-        if !position.is_finite() {
+        if params.kind.needs_scene() {
             return Err(Error::parameter(
-                "position",
-                format!("{:?}", params.position),
-                "three finite numbers",
+                "type",
+                format!("{:?}", params.kind),
+                "a light built with its scene (Light::create_in)",
             ));
         }
-        let intensity = params.intensity.rgb();
-        validate_intensity(intensity)?;
+        Self::create_in(
+            params,
+            LightContext {
+                bounds: &Aabb::unit(),
+                base: Path::new("."),
+            },
+        )
+    }
+
+    /// Builds any light in its scene's context; errors name the key.
+    pub fn create_in(params: &LightParams, context: LightContext<'_>) -> Result<Self> {
+        check_keys(params)?;
         match params.kind {
-            LightKind::Point => {
-                for (key, present) in [
-                    ("target", params.target.is_some()),
-                    ("cone_angle", params.cone_angle.is_some()),
-                    ("beam_width", params.beam_width.is_some()),
-                    ("falloff", params.falloff.is_some()),
-                ] {
-                    if present {
-                        return Err(Error::given_without_use(
-                            key,
-                            "no such key for a point light",
-                        ));
-                    }
-                }
-                Ok(Light::Point(PointLight {
-                    position,
-                    intensity,
-                }))
-            }
+            LightKind::Point => Ok(Light::Point(PointLight {
+                position: required_point(params.position, "position")?,
+                intensity: intensity_of(params)?,
+            })),
             LightKind::Spot => {
+                let position = required_point(params.position, "position")?;
+                let intensity = intensity_of(params)?;
                 let target = params.target.ok_or_else(|| {
                     Error::parameter("target", "(missing)", "the point the spot light aims at")
                 })?;
@@ -194,56 +310,86 @@ impl Light {
                 SpotLight::new(position, Vec3::from(target), intensity, cone, beam)
                     .map(|s| Light::Spot(s.with_falloff(shape)))
             }
+            LightKind::Rect | LightKind::Disc => area_light(params).map(Light::Area),
+            LightKind::Environment | LightKind::Sky => {
+                environment_light(params, context).map(|e| Light::Environment(Arc::new(e)))
+            }
         }
     }
 
     /// The parameters that build this light again (a spot's target one unit along its
-    /// axis; angles in degrees).
+    /// axis; angles in degrees; an environment as it was written).
     pub fn params(&self) -> LightParams {
         match self {
             Light::Point(p) => LightParams {
                 kind: LightKind::Point,
-                position: p.position.to_array(),
-                target: None,
-                intensity: Intensity::Rgb(p.intensity.to_array()),
-                cone_angle: None,
-                beam_width: None,
-                falloff: None,
+                position: Some(p.position.to_array()),
+                intensity: Some(Intensity::Rgb(p.intensity.to_array())),
+                ..LightParams::default()
             },
             Light::Spot(s) => LightParams {
                 kind: LightKind::Spot,
-                position: s.position.to_array(),
+                position: Some(s.position.to_array()),
                 target: Some((s.position + s.frame.w).to_array()),
-                intensity: Intensity::Rgb(s.intensity.to_array()),
+                intensity: Some(Intensity::Rgb(s.intensity.to_array())),
                 cone_angle: Some(s.cone_angle.to_degrees()),
                 beam_width: Some(s.beam_width.to_degrees()),
                 falloff: (s.shape != SpotFalloff::Linear).then_some(s.shape),
+                ..LightParams::default()
             },
+            Light::Area(a) => LightParams {
+                kind: match a.shape() {
+                    AreaShape::Rect => LightKind::Rect,
+                    AreaShape::Disc => LightKind::Disc,
+                },
+                position: Some(a.centre().to_array()),
+                normal: Some(a.normal().to_array()),
+                up: (a.shape() == AreaShape::Rect).then(|| a.height_axis().to_array()),
+                size: (a.shape() == AreaShape::Rect).then(|| a.extent()),
+                radius: (a.shape() == AreaShape::Disc).then(|| a.extent()[0]),
+                radiance: Some(Intensity::Rgb(a.radiance().to_array())),
+                ..LightParams::default()
+            },
+            Light::Environment(e) => e.params(),
         }
     }
 
-    /// Position of the light.
+    /// Whether the light is a delta light (a point or spot: one direction per point, no
+    /// sampling, no pdf).
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Light::Spot(_) | Light::Point(_))
+    }
+
+    /// Position of the light (a delta light's; an area light's centre; an environment's
+    /// bounding-sphere centre).
     pub fn position(&self) -> Vec3 {
         match self {
             Light::Spot(s) => s.position,
             Light::Point(p) => p.position,
+            Light::Area(a) => a.centre(),
+            Light::Environment(e) => e.centre(),
         }
     }
 
-    /// Total emitted power Φ (W, RGB).
+    /// Total emitted power Φ (W, RGB); an environment's is the power entering the volume's
+    /// bounding sphere.
     pub fn power(&self) -> Vec3 {
         match self {
             Light::Point(p) => 4.0 * PI * p.intensity,
             Light::Spot(s) => s.intensity * s.solid_angle_weight(),
+            Light::Area(a) => a.power(),
+            Light::Environment(e) => e.power(),
         }
     }
 
-    /// Light arriving at `p` (unattenuated), or `None` outside a spot's cone.
+    /// Light arriving at `p` from a delta light (unattenuated), or `None` outside a spot's
+    /// cone — and for lights with extent, which are sampled ([`Self::sample_incident`]).
     #[inline]
     pub fn incident(&self, p: Vec3) -> Option<Incident> {
         let (position, intensity) = match self {
             Light::Spot(s) => (s.position, s.intensity),
             Light::Point(l) => (l.position, l.intensity),
+            Light::Area(_) | Light::Environment(_) => return None,
         };
         let d = position - p;
         let dist2 = d.length_squared();
@@ -254,7 +400,7 @@ impl Light {
         let to_light = d / distance;
         let falloff = match self {
             Light::Spot(s) => s.falloff(-to_light),
-            Light::Point(_) => 1.0,
+            _ => 1.0,
         };
         if falloff <= 0.0 {
             return None;
@@ -263,18 +409,253 @@ impl Light {
             to_light,
             distance,
             radiance: intensity * (falloff / dist2),
+            pdf: f32::INFINITY,
         })
     }
 
-    /// Samples an emitted photon's direction with a pdf proportional to the emitted
+    /// Light arriving at `p`: a delta light's exactly (drawing nothing from `rng`, so a
+    /// scene of spot lights renders as before), a light with extent's from one sampled
+    /// direction (radiance over pdf).
+    #[inline]
+    pub fn sample_incident(&self, p: Vec3, rng: &mut Rng) -> Option<Incident> {
+        match self {
+            Light::Spot(_) | Light::Point(_) => self.incident(p),
+            Light::Area(a) => a.sample_incident(p, rng.uniform2()),
+            Light::Environment(e) => e.sample_incident(rng.uniform2()),
+        }
+    }
+
+    /// The solid-angle pdf with which [`Self::sample_incident`] at `p` returns direction
+    /// `w`, the radiance arriving along it and the distance to the light (`None` for a
+    /// delta light, or where `w` misses the light): what multiple importance sampling
+    /// asks of a direction the phase function chose.
+    pub fn pdf_and_radiance(&self, p: Vec3, w: Vec3) -> Option<(f32, Vec3, f32)> {
+        match self {
+            Light::Spot(_) | Light::Point(_) => None,
+            Light::Area(a) => a.pdf(p, w).map(|(pdf, t)| (pdf, a.radiance(), t)),
+            Light::Environment(e) => {
+                let pdf = e.pdf(w);
+                (pdf > 0.0).then(|| (pdf, e.eval(w), f32::INFINITY))
+            }
+        }
+    }
+
+    /// An emitted photon's ray and its power relative to `Φ/N` (per channel): equal
+    /// powers for every light but an environment, whose photons carry `L/p` (§7.1.2).
+    pub fn emit(&self, rng: &mut Rng) -> (Ray, Vec3) {
+        match self {
+            Light::Spot(_) | Light::Point(_) => (
+                Ray::new(self.position(), self.sample_direction(rng)),
+                Vec3::ONE,
+            ),
+            Light::Area(a) => (a.emit(rng), Vec3::ONE),
+            Light::Environment(e) => e.emit(rng),
+        }
+    }
+
+    /// Samples a delta light's photon direction with a pdf proportional to the emitted
     /// intensity (so all photons of a light carry equal power, §5.1/§7.1.2).
     pub fn sample_direction(&self, rng: &mut Rng) -> Vec3 {
         match self {
-            Light::Point(_) => uniform_sphere(rng.uniform2()),
             Light::Spot(s) => s.sample_direction(rng),
+            _ => uniform_sphere(rng.uniform2()),
         }
     }
 }
+
+/// A key given to a light whose type has no use for it is an error naming it.
+fn check_keys(params: &LightParams) -> Result<()> {
+    let given = [
+        ("position", params.position.is_some()),
+        ("target", params.target.is_some()),
+        ("intensity", params.intensity.is_some()),
+        ("cone_angle", params.cone_angle.is_some()),
+        ("beam_width", params.beam_width.is_some()),
+        ("falloff", params.falloff.is_some()),
+        ("normal", params.normal.is_some()),
+        ("size", params.size.is_some()),
+        ("radius", params.radius.is_some()),
+        ("radiance", params.radiance.is_some()),
+        ("up", params.up.is_some()),
+        ("file", params.file.is_some()),
+        ("scale", params.scale.is_some()),
+        ("rotation", params.rotation.is_some()),
+        ("zenith", params.zenith.is_some()),
+        ("horizon", params.horizon.is_some()),
+        ("ground", params.ground.is_some()),
+        ("sun_direction", params.sun_direction.is_some()),
+        ("sun_radiance", params.sun_radiance.is_some()),
+        ("sun_angle", params.sun_angle.is_some()),
+    ];
+    let allowed = params.kind.keys();
+    for (key, present) in given {
+        if present && !allowed.contains(&key) {
+            return Err(Error::given_without_use(
+                key,
+                format!(
+                    "no such key for a {} light (it takes {})",
+                    kind_name(params.kind),
+                    allowed.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn kind_name(kind: LightKind) -> &'static str {
+    match kind {
+        LightKind::Point => "point",
+        LightKind::Spot => "spot",
+        LightKind::Rect => "rect",
+        LightKind::Disc => "disc",
+        LightKind::Environment => "environment",
+        LightKind::Sky => "sky",
+    }
+}
+
+fn required_point(p: Option<[f32; 3]>, key: &str) -> Result<Vec3> {
+    let p = p.ok_or_else(|| Error::parameter(key, "(missing)", "three finite numbers"))?;
+    let v = Vec3::from(p);
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(Error::parameter(
+            key,
+            format!("{p:?}"),
+            "three finite numbers",
+        ))
+    }
+}
+
+fn intensity_of(params: &LightParams) -> Result<Vec3> {
+    let i = params
+        .intensity
+        .ok_or_else(|| Error::parameter("intensity", "(missing)", "W/sr: one number or RGB"))?
+        .rgb();
+    validate_intensity(i)?;
+    Ok(i)
+}
+
+/// A rectangle or disc from `position`, `normal` or `target`, `size` or `radius`,
+/// `radiance` and (rectangle) `up`.
+fn area_light(params: &LightParams) -> Result<AreaLight> {
+    let centre = required_point(params.position, "position")?;
+    let normal = match (params.normal, params.target) {
+        (Some(n), None) => Vec3::from(n),
+        (None, Some(t)) => Vec3::from(t) - centre,
+        (Some(_), Some(_)) => {
+            return Err(Error::parameter(
+                "target",
+                "(given with normal)",
+                "either `normal` or `target`, not both",
+            ));
+        }
+        (None, None) => {
+            return Err(Error::parameter(
+                "normal",
+                "(missing)",
+                "the emitting side's normal, or a `target` it faces",
+            ));
+        }
+    };
+    let (shape, extent) = match params.kind {
+        LightKind::Rect => (
+            AreaShape::Rect,
+            params.size.ok_or_else(|| {
+                Error::parameter("size", "(missing)", "[width, height] in world units")
+            })?,
+        ),
+        _ => {
+            let r = params
+                .radius
+                .ok_or_else(|| Error::parameter("radius", "(missing)", "a length > 0"))?;
+            (AreaShape::Disc, [r, r])
+        }
+    };
+    let radiance = params
+        .radiance
+        .ok_or_else(|| Error::parameter("radiance", "(missing)", "W/m²/sr: one number or RGB"))?
+        .rgb();
+    AreaLight::new(
+        shape,
+        centre,
+        normal,
+        params.up.map(Vec3::from),
+        extent,
+        radiance,
+    )
+}
+
+/// An environment map or a sky, oriented and scaled, around the scene's bounds.
+fn environment_light(params: &LightParams, context: LightContext<'_>) -> Result<EnvironmentLight> {
+    let (source, map) = if params.kind == LightKind::Environment {
+        let file = params.file.as_ref().ok_or_else(|| {
+            Error::parameter("file", "(missing)", "an HDR map: .exr, .pfm or .hdr")
+        })?;
+        let path = context.base.join(file);
+        // The map's own error (missing, not HDR, a bad texel) under the key that named it,
+        // so the scene file's line is reported too.
+        let map = EnvironmentMap::load(&path)
+            .map_err(|e| Error::parameter("file", file.display(), e.to_string()))?;
+        (EnvironmentSource::File(file.clone()), map)
+    } else {
+        let colour = |v: Option<Intensity>, key: &str, default: [f32; 3]| -> Result<Vec3> {
+            let c = v.map_or(Vec3::from(default), |i| i.rgb());
+            if c.is_finite() && c.min_element() >= 0.0 && c.max_element() <= MAX_INTENSITY {
+                Ok(c)
+            } else {
+                Err(Error::parameter(
+                    key,
+                    format!("{:?}", c.to_array()),
+                    "finite radiances >= 0 (W/m²/sr)",
+                ))
+            }
+        };
+        let colours = SkyColours {
+            zenith: colour(params.zenith, "zenith", DEFAULT_ZENITH)?,
+            horizon: colour(params.horizon, "horizon", DEFAULT_HORIZON)?,
+            ground: colour(params.ground, "ground", DEFAULT_GROUND)?,
+        };
+        let map = EnvironmentLight::sky_map(&colours).map_err(|_| {
+            Error::parameter("zenith", "(all colours 0)", "a sky that emits something")
+        })?;
+        (EnvironmentSource::Sky(colours), map)
+    };
+    let sun = match (params.sun_direction, params.sun_radiance) {
+        (Some(d), Some(r)) => Some(Sun::new(
+            Vec3::from(d),
+            r.rgb(),
+            params.sun_angle.unwrap_or(DEFAULT_SUN_ANGLE),
+        )?),
+        (None, None) if params.sun_angle.is_none() => None,
+        _ => {
+            return Err(Error::parameter(
+                "sun_direction",
+                "(sun incomplete)",
+                "both `sun_direction` and `sun_radiance` for a sun (`sun_angle` optional)",
+            ));
+        }
+    };
+    let scale = params.scale.map_or(Vec3::ONE, |s| s.rgb());
+    let up = params.up.map_or(Vec3::Z, Vec3::from);
+    EnvironmentLight::new(
+        source,
+        map,
+        scale,
+        up,
+        params.rotation.unwrap_or(0.0),
+        sun,
+        context.bounds,
+    )
+}
+
+/// A clear day's sky by default: blue above, a bright horizon, a dim ground (W/m²/sr).
+const DEFAULT_ZENITH: [f32; 3] = [0.25, 0.4, 0.9];
+const DEFAULT_HORIZON: [f32; 3] = [0.9, 0.9, 0.9];
+const DEFAULT_GROUND: [f32; 3] = [0.15, 0.13, 0.1];
+/// The real sun's angular diameter, degrees.
+const DEFAULT_SUN_ANGLE: f32 = 0.53;
 
 /// The smallest `f32` cosine whose `acos` is within `angle`, four ulps up (so that `acos`
 /// rounding differently one ulp apart cannot matter): every cosine at or above it is
@@ -636,12 +1017,9 @@ mod tests {
     fn inverse_square_and_cone() {
         let l = Light::create(&LightParams {
             kind: LightKind::Point,
-            position: [0.0, 0.0, 2.0],
-            target: None,
-            intensity: Intensity::Grey(8.0),
-            cone_angle: None,
-            beam_width: None,
-            falloff: None,
+            position: Some([0.0, 0.0, 2.0]),
+            intensity: Some(Intensity::Grey(8.0)),
+            ..LightParams::default()
         })
         .unwrap();
         let inc = l.incident(Vec3::ZERO).unwrap();

@@ -34,8 +34,11 @@
 //! checks happen in each component's `create`, which names the key, and [`load_params`] /
 //! [`Scene::load`] turn that key back into the line and column where it was written.
 
+mod area;
 mod camera;
 mod diagnostics;
+mod environment;
+mod envmap;
 mod export;
 mod light;
 mod params;
@@ -45,12 +48,15 @@ mod settings;
 use std::path::Path;
 use std::sync::Arc;
 
+pub use area::{AreaLight, AreaShape};
 pub use camera::{Camera, CameraParams};
 pub use diagnostics::{key_at, line_col, locate, locate_error, toml_error};
+pub use environment::{EnvironmentLight, EnvironmentSource, SKY_MAP_WIDTH, SkyColours, Sun};
+pub use envmap::EnvironmentMap;
 pub use export::{MitsubaExport, export_mitsuba};
 pub use light::{
-    Incident, Intensity, Light, LightKind, LightParams, PointLight, SpotFalloff, SpotLight,
-    ThreePointParams, three_point,
+    Incident, Intensity, Light, LightContext, LightKind, LightParams, PointLight, SpotFalloff,
+    SpotLight, ThreePointParams, three_point,
 };
 pub use params::{
     BoxParams, NormalizeKind, PhaseParams, SceneParams, VolumeParams, build_medium, load_params,
@@ -114,14 +120,16 @@ impl Scene {
         validate_params(params)?;
         let volume = load_volume(&params.volume, base, search)?;
         let medium = build_medium(params, &volume, base)?;
-        Self::assemble(params, Arc::new(medium), volume.source().clone())
+        Self::assemble(params, Arc::new(medium), volume.source().clone(), base)
     }
 
-    /// Builds a scene around an existing medium (shared between sweep cells).
+    /// Builds a scene around an existing medium (shared between sweep cells); `base` is the
+    /// scene file's folder (an environment's relative `file`).
     pub fn assemble(
         params: &SceneParams,
         medium: Arc<Medium>,
         volume_source: VolumeSource,
+        base: &Path,
     ) -> Result<Self> {
         validate_params(params)?;
         check_march_length(params, &medium)?;
@@ -132,8 +140,14 @@ impl Scene {
                 three_point(&camera, &medium.bounds(), tp).map_err(|e| e.within("three_point"))?,
             );
         }
+        let bounds = medium.bounds();
+        let context = LightContext {
+            bounds: &bounds,
+            base,
+        };
         for (i, l) in params.lights.iter().enumerate() {
-            lights.push(Light::create(l).map_err(|e| e.within(&format!("lights[{i}]")))?);
+            lights
+                .push(Light::create_in(l, context).map_err(|e| e.within(&format!("lights[{i}]")))?);
         }
         Ok(Scene {
             medium,

@@ -225,8 +225,11 @@ pub fn validate_params(params: &SceneParams) -> Result<()> {
     Phase::henyey_greenstein(params.phase.g)
         .map_err(|_| Error::parameter("phase.g", params.phase.g, "an asymmetry in (-1, 1)"))?;
     Camera::create(&params.camera).map_err(|e| e.within("camera"))?;
+    // Environments are built (their maps read) with the scene, in `Scene::assemble`.
     for (i, l) in params.lights.iter().enumerate() {
-        Light::create(l).map_err(|e| e.within(&format!("lights[{i}]")))?;
+        if !l.kind.needs_scene() {
+            Light::create(l).map_err(|e| e.within(&format!("lights[{i}]")))?;
+        }
     }
     if params.lights.is_empty() && params.three_point.is_none() {
         return Err(Error::parameter(

@@ -27,6 +27,7 @@
 //! | `iterations`, `photons_per_iteration`, `time_budget` | 16, 0 (= `volume_photons`), 0 (none) | progressive and beam: independent photon maps averaged (beam with 1: the plain beam estimate) |
 //! | `target_rmse` | 0 (off) | progressive and beam: stop after the iteration whose image is within this RMSE of the reference (in an experiment with `[reference]`) |
 //! | `radius` | `auto` | progressive and beam: `global` (one radius; progressive's `auto`), `nearest` (each photon's `nused`-th-neighbour distance; the beams' `auto`) or `balanced` (`r_k^{3/7}·σt^{−4/7}`, the asymptotic-MSE balance) |
+//! | `light_samples` | 1 | the marcher's directions drawn from each area or environment light at every eye-ray step, each with its own shadow ray: the steps are a few voxels apart, so a pixel already averages hundreds of light samples along its ray, and more per step multiplies the shadow rays |
 //! | `eye_rays` | `replayed` | progressive, beam and plane: later iterations shade the first one's eye samples; `fresh` draws new eye rays every iteration and averages every layer (converges per pixel, a full march per iteration) |
 //! | `initial_radius` | `nused` | progressive: median `nused`-th-neighbour distance of the first map; beam: each photon's own `nused`-th-neighbour distance (or `maxdist` for both) |
 //! | `film.exposure` | 0 | stops applied before sRGB encoding |
@@ -308,6 +309,14 @@ pub struct IntegratorParams {
     /// `replayed`, so the content addresses of cells that do not set it stay what they were.
     #[serde(skip_serializing_if = "is_replayed")]
     pub eye_rays: EyeRays,
+    /// The marcher's light samples per eye-ray step for each light with extent (area,
+    /// environment). Not written when 1, so content addresses stay what they were.
+    #[serde(skip_serializing_if = "is_one")]
+    pub light_samples: u32,
+}
+
+fn is_one(n: &u32) -> bool {
+    *n == 1
 }
 
 fn is_auto(r: &RadiusRule) -> bool {
@@ -356,6 +365,7 @@ impl Default for IntegratorParams {
             initial_radius: InitialRadius::Nused,
             radius: RadiusRule::Auto,
             eye_rays: EyeRays::Replayed,
+            light_samples: 1,
         }
     }
 }
@@ -553,6 +563,13 @@ impl IntegratorParams {
                 "spp",
                 self.spp,
                 "an integer in [1, 65536]",
+            ));
+        }
+        if !(1..=1024).contains(&self.light_samples) {
+            return Err(Error::parameter(
+                "light_samples",
+                self.light_samples,
+                "an integer in [1, 1024]",
             ));
         }
         if !(1..=1_048_576).contains(&self.reference_spp) {

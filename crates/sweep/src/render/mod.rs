@@ -543,11 +543,14 @@ pub(crate) fn non_finite(
         .lights
         .iter()
         .enumerate()
-        .map(|(i, l)| {
-            (
-                format!("lights[{i}].intensity"),
-                l.intensity.rgb().max_element(),
-            )
+        .filter_map(|(i, l)| {
+            // The brightest delta light's intensity, or an area light's radiance.
+            let (key, value) = match (l.intensity, l.radiance) {
+                (Some(v), _) => ("intensity", v),
+                (None, Some(v)) => ("radiance", v),
+                _ => return None,
+            };
+            Some((format!("lights[{i}].{key}"), value.rgb().max_element()))
         })
         .collect();
     if let Some(t) = &params.three_point {

@@ -60,6 +60,11 @@ impl Caches {
         let medium = cached(&self.media, &medium_key, || {
             build_medium(params, &volume, base).map_err(Into::into)
         })?;
-        Ok(Scene::assemble(params, medium, volume.source().clone())?)
+        Ok(Scene::assemble(
+            params,
+            medium,
+            volume.source().clone(),
+            base,
+        )?)
     }
 }

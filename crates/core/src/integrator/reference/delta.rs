@@ -43,7 +43,7 @@ pub(super) fn trace_path(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> PathSamp
         if layer_wanted {
             let mut direct = Vec3::ZERO;
             for light in scene.lights() {
-                let Some(inc) = light.incident(x) else {
+                let Some(inc) = light.sample_incident(x, rng) else {
                     continue;
                 };
                 let shadow = Ray {

@@ -232,7 +232,7 @@ fn direct_from_every_light(
     let medium = scene.medium();
     let mut sum = Vec3::ZERO;
     for light in scene.lights() {
-        if let Some((radiance, to_light, distance)) = unshadowed(medium, light, x, incoming) {
+        if let Some((radiance, to_light, distance)) = unshadowed(medium, light, x, incoming, rng) {
             *work += 1;
             sum += radiance * transmittance(medium, x, to_light, distance, rng, exact);
         }
@@ -259,7 +259,7 @@ fn direct_from_one_light(
     let mut candidates = [(Vec3::ZERO, Vec3::ZERO, 0.0f32, 0.0f32); MAX_CHOSEN_LIGHTS];
     let mut total = 0.0f32;
     for (l, (slot, light)) in candidates.iter_mut().zip(lights).enumerate() {
-        if let Some((radiance, to_light, distance)) = unshadowed(medium, light, x, incoming) {
+        if let Some((radiance, to_light, distance)) = unshadowed(medium, light, x, incoming, rng) {
             // With a guide, the choice also weighs how much of the light gets through the
             // region around `x` (never less than a floor, so every light stays possible).
             let seen = visibility.map_or(1.0, |v| v.weight(x, l));
@@ -297,14 +297,18 @@ fn choose(
 
 /// The light `light` sends to `x` and the phase function scatters back along `incoming`,
 /// before shadowing, with the direction and distance to it (`None` outside a spot's cone).
+/// A light with extent is sampled (one direction, radiance over pdf); a delta light draws
+/// nothing, so a choice among candidates weighs each light's sampled estimate and stays
+/// unbiased.
 #[inline]
 fn unshadowed(
     medium: &Medium,
     light: &Light,
     x: Vec3,
     incoming: Vec3,
+    rng: &mut Rng,
 ) -> Option<(Vec3, Vec3, f32)> {
-    let inc = light.incident(x)?;
+    let inc = light.sample_incident(x, rng)?;
     let phase = medium.phase().eval(-inc.to_light, -incoming);
     Some((inc.radiance * phase, inc.to_light, inc.distance))
 }

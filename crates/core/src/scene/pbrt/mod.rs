@@ -3,7 +3,8 @@
 //! The study's system was a pair of pbrt-v1 plugins (thesis §7): `Volume "rawvolumegrid"`
 //! (§7.2.1) and `VolumeIntegrator "volphotonmap"` (§7.1.1). Their scenes are read with the
 //! directives pbrt-v1 gives them meaning by — `LookAt`, the transform stack, `Camera
-//! "perspective"`, `Film`, `Sampler`, `LightSource "spot"` / `"point"`, `Include` — and
+//! "perspective"`, `Film`, `Sampler`, `LightSource "spot"` / `"point"` / `"infinite"`
+//! (constant, as a one-colour sky), `Include` — and
 //! written as the equivalent volphot scene. Where pbrt-v1 and volphot differ the import
 //! follows pbrt-v1's sources (`mmp/pbrt-v1`):
 //! * `fov` spans the *shorter* image axis (`cameras/perspective.cpp`), volphot's the
@@ -636,12 +637,9 @@ impl Importer {
         let light = match kind {
             "point" => LightParams {
                 kind: LightKind::Point,
-                position: position.as_vec3().to_array(),
-                target: None,
-                intensity: intensity_of(intensity),
-                cone_angle: None,
-                beam_width: None,
-                falloff: None,
+                position: Some(position.as_vec3().to_array()),
+                intensity: Some(intensity_of(intensity)),
+                ..LightParams::default()
             },
             "spot" => {
                 let to = p.triple("to", &["point"])?.unwrap_or(DVec3::Z);
@@ -654,20 +652,47 @@ impl Importer {
                 }
                 LightParams {
                     kind: LightKind::Spot,
-                    position: position.as_vec3().to_array(),
+                    position: Some(position.as_vec3().to_array()),
                     target: Some(self.ctm.transform_point3(to).as_vec3().to_array()),
-                    intensity: intensity_of(intensity),
+                    intensity: Some(intensity_of(intensity)),
                     cone_angle: Some(cone as f32),
                     beam_width: Some((cone - delta) as f32),
                     falloff: Some(SpotFalloff::Pbrt),
+                    ..LightParams::default()
+                }
+            }
+            "infinite" => {
+                let radiance = p.triple("L", &["color", "rgb"])?.unwrap_or(DVec3::ONE);
+                if p.string("mapname")?.is_some() {
+                    self.unmapped(
+                        s,
+                        None,
+                        "pbrt-v1's infinite-light map (φ = atan2(y, x) about +z) is the mirror image of the equirectangular convention volphot and Mitsuba use: convert the map and write an `environment` light",
+                    );
+                    return Ok(());
+                }
+                // A constant environment: a sky of one colour (orientation is moot).
+                let colour = Some(intensity_of(radiance));
+                LightParams {
+                    kind: LightKind::Sky,
+                    zenith: colour,
+                    horizon: colour,
+                    ground: colour,
+                    ..LightParams::default()
                 }
             }
             _ => {
-                self.unmapped(s, None, "volphot has spot and point lights only");
+                self.unmapped(
+                    s,
+                    None,
+                    "volphot imports spot, point and constant infinite lights (area lights are pbrt shapes: write them as `rect` or `disc` lights)",
+                );
                 return Ok(());
             }
         };
-        Light::create(&light).map_err(|e| s.error(e.to_string()))?;
+        if !light.kind.needs_scene() {
+            Light::create(&light).map_err(|e| s.error(e.to_string()))?;
+        }
         self.params.lights.push(light);
         let left = p.finish();
         self.leftovers(s, left);

@@ -102,19 +102,19 @@ fn thesis_style_scene_maps_every_parameter() {
     };
     assert_eq!(
         spot.position,
-        [-1.0, -2.0, 2.0],
+        Some([-1.0, -2.0, 2.0]),
         "placed by the Translate in its attribute block"
     );
     assert_eq!(spot.target, Some([0.5, 0.5, 0.5]));
     assert_eq!((spot.cone_angle, spot.beam_width), (Some(25.0), Some(20.0)));
     assert_eq!(spot.falloff, Some(SpotFalloff::Pbrt));
-    assert_eq!(spot.intensity, Intensity::Grey(40.0));
+    assert_eq!(spot.intensity, Some(Intensity::Grey(40.0)));
     assert_eq!(
         point.position,
-        [2.0, 0.5, 2.0],
+        Some([2.0, 0.5, 2.0]),
         "AttributeEnd restored the identity"
     );
-    assert_eq!(point.intensity, Intensity::Rgb([1.0, 2.0, 3.0]));
+    assert_eq!(point.intensity, Some(Intensity::Rgb([1.0, 2.0, 3.0])));
     let lines: Vec<(usize, &str)> = import
         .unmapped
         .iter()
@@ -222,7 +222,7 @@ fn sixteen_bit_threshold_and_included_files() {
     assert_eq!(p.volume.voxel, Some(VoxelType::U16));
     assert_eq!(
         p.lights[0].intensity,
-        Intensity::Grey(1.0),
+        Some(Intensity::Grey(1.0)),
         "pbrt-v1's default I"
     );
 }
@@ -693,4 +693,34 @@ fn a_rawfile_that_is_not_a_regular_file_is_refused_at_import() {
             "{raw}: {e}"
         );
     }
+}
+
+#[test]
+fn a_constant_infinite_light_becomes_a_one_colour_sky_and_a_map_is_reported() {
+    let constant = THESIS_STYLE.replace(
+        "LightSource \"point\" \"color I\" [1 2 3] \"point from\" [2 0.5 2]",
+        "LightSource \"infinite\" \"color L\" [0.2 0.3 0.4]",
+    );
+    let import = import_text(&constant).unwrap();
+    let sky = &import.params.lights[1];
+    assert_eq!(sky.kind, LightKind::Sky);
+    let colour = Some(Intensity::Rgb([0.2, 0.3, 0.4]));
+    assert_eq!(
+        (sky.zenith, sky.horizon, sky.ground),
+        (colour, colour, colour)
+    );
+    let mapped = THESIS_STYLE.replace(
+        "LightSource \"point\" \"color I\" [1 2 3] \"point from\" [2 0.5 2]",
+        "LightSource \"infinite\" \"string mapname\" \"sky.exr\"",
+    );
+    let import = import_text(&mapped).unwrap();
+    assert_eq!(import.params.lights.len(), 1);
+    assert!(
+        import
+            .unmapped
+            .iter()
+            .any(|u| u.to_string().contains("mirror image")),
+        "{:?}",
+        import.unmapped
+    );
 }
