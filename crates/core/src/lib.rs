@@ -105,14 +105,15 @@ pub use render_warnings::{
     PHOTONS_PER_NUSED, PhotonKey, RenderWarning, TRANSPARENT_FREE_PATH_PERCENT, render_warnings,
 };
 pub use scene::{
-    AreaLight, AreaShape, BoxParams, Camera, CameraParams, DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE,
-    DEFAULT_THIN_BELOW, EnvironmentLight, EnvironmentMap, EnvironmentSource, Estimate, EyeRays,
-    FilmParams, Incident, InitialRadius, IntegratorParams, Intensity, Light, LightContext,
-    LightKind, LightParams, MAX_MARCH_STEPS, MAX_PHOTONS, Method, MitsubaExport, MsEstimator,
-    NormalizeKind, PbrtImport, PhaseParams, PointLight, Quadrature, RadiusRule, SKY_MAP_WIDTH,
-    Scene, SceneParams, ShadowEstimator, SkyColours, SpotFalloff, SpotLight, Sun, ThreePointParams,
-    Tracker, Unmapped, VolumeParams, build_medium, export_mitsuba, import_pbrt, key_at, line_col,
-    load_params, load_volume, locate, locate_error, three_point, toml_error, validate_params,
+    AreaLight, AreaShape, BoxParams, CINEMATIC_KEY_DEGREES, Camera, CameraParams, DEFAULT_ALPHA,
+    DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW, EnvironmentLight, EnvironmentMap,
+    EnvironmentSource, Estimate, EyeRays, FilmParams, Incident, InitialRadius, IntegratorParams,
+    Intensity, Light, LightContext, LightKind, LightParams, LightingStyle, MAX_MARCH_STEPS,
+    MAX_PHOTONS, Method, MitsubaExport, MsEstimator, NormalizeKind, PbrtImport, PhaseParams,
+    PointLight, Quadrature, RadiusRule, SKY_MAP_WIDTH, Scene, SceneParams, ShadowEstimator,
+    SkyColours, SpotFalloff, SpotLight, Sun, ThreePointParams, Tracker, Unmapped, VolumeParams,
+    build_medium, export_mitsuba, import_pbrt, key_at, line_col, load_params, load_volume, locate,
+    locate_error, three_point, toml_error, validate_params,
 };
 pub use util::{
     TEXT_INPUT_CAP, byte_size, cache_dir, escaped_prefix, hostname, is_stale_temp,

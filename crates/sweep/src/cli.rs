@@ -540,6 +540,27 @@ pub(crate) struct BenchArgs {
     /// then ends in `-dirty`).
     #[arg(long, requires = "json")]
     pub(crate) allow_dirty: bool,
+    /// Light the scene's `[three_point]` layout in this style (default: as the scene says).
+    #[arg(long, value_enum)]
+    pub(crate) lighting: Option<Lighting>,
+}
+
+/// The style of the three-point layout's lights (`sweep bench --lighting`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum Lighting {
+    /// Key, fill and rim spot lights (the thesis's).
+    Spots,
+    /// A soft area key light and a sky (cinematic rendering's light).
+    Cinematic,
+}
+
+impl Lighting {
+    fn style(self) -> volphot::LightingStyle {
+        match self {
+            Lighting::Spots => volphot::LightingStyle::Spots,
+            Lighting::Cinematic => volphot::LightingStyle::Cinematic,
+        }
+    }
 }
 
 /// A peer renderer `sweep bench --peer` compares with.
@@ -566,6 +587,9 @@ pub(crate) enum BenchConfig {
     OneThread,
     /// The transmittance and scattering caches (128 nodes): fast, not exact.
     Cached,
+    /// The default under cinematic light: the `[three_point]` layout as a soft area key
+    /// light and a sky (`three_point.style = "cinematic"`).
+    Cinematic,
     /// Single scattering only: the marcher against the path tracer, RMSE² × CPU-s.
     Efficiency,
 }
@@ -782,6 +806,7 @@ impl BenchArgs {
             budget: self.budget,
             budget_samples: self.budget_samples,
             routes: self.routes,
+            lighting: self.lighting.map(Lighting::style),
         })
     }
 }
@@ -797,6 +822,7 @@ impl BenchConfig {
             BenchConfig::Thinned => C::Thinned,
             BenchConfig::OneThread => C::OneThread,
             BenchConfig::Cached => C::Cached,
+            BenchConfig::Cinematic => C::Cinematic,
             BenchConfig::Efficiency => C::Efficiency,
         }
     }

@@ -71,12 +71,9 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, name: &str) -> Result<MitsubaEx
     for (i, light) in scene.lights().iter().enumerate() {
         env_files.push(match light {
             Light::Environment(e) => {
-                // The map exactly as volphot samples it (a sky's bake, a file's texels,
-                // times `scale`), as PFM.
                 let file = format!("{name}-env{i}.pfm");
-                let map = e.map();
-                let texels: Vec<Vec3> = map.texels().iter().map(|t| *t * e.scale()).collect();
-                crate::film::write_pfm(&dir.join(&file), map.width(), map.height(), &texels)?;
+                let (w, h, texels) = mitsuba_texels(e);
+                crate::film::write_pfm(&dir.join(&file), w, h, &texels)?;
                 maps.push(dir.join(&file));
                 Some(file)
             }
@@ -407,6 +404,28 @@ fn emitter_xml(x: &mut String, light: &Light, env_file: Option<&str>) {
     }
 }
 
+/// The environment volphot samples (a sky's bake or a file's texels, times `scale`) as
+/// Mitsuba's `envmap` reads it. volphot looks texels up nearest, row `j` covering
+/// `θ ∈ [j, j + 1]·π/H`; Mitsuba interpolates bilinearly with row `j` centred at
+/// `θ = j·π/(H − 1)` (and columns centred as volphot's). So the map is written `k` times
+/// finer (`k` ≤ 4, at most 4096 columns) with `k·H + 1` rows, each the nearest volphot
+/// texel at its own centre: the two reconstructions then differ only in bands of a
+/// `k`-th of a texel at texel edges.
+fn mitsuba_texels(env: &super::EnvironmentLight) -> (usize, usize, Vec<Vec3>) {
+    let map = env.map();
+    let (w, h) = (map.width(), map.height());
+    let k = (4096 / w).clamp(1, 4);
+    let (wk, hk) = (w * k, h * k + 1);
+    let texels = (0..hk)
+        .flat_map(|row| {
+            let v = row as f64 / (hk - 1) as f64;
+            let source = ((v * h as f64) as usize).min(h - 1);
+            (0..wk).map(move |col| map.texels()[source * w + col / k] * env.scale())
+        })
+        .collect();
+    (wk, hk, texels)
+}
+
 /// One row of a 3×3 block of a Mitsuba `matrix` value.
 fn row(a: f32, b: f32, c: f32) -> String {
     format!("{a} {b} {c}")
@@ -694,9 +713,15 @@ mod tests {
         let Light::Environment(env) = &scene.lights()[2] else {
             panic!("the sky")
         };
+        // Four times finer, one more row: the poles and each texel's centre keep volphot's
+        // values (Mitsuba's bilinear lookup there returns them).
         let (w, h, texels) = crate::film::read_pfm(&files.maps[0]).unwrap();
-        assert_eq!((w, h), (env.map().width(), env.map().height()));
-        assert_eq!(texels, env.map().texels());
+        let (mw, mh) = (env.map().width(), env.map().height());
+        assert_eq!((w, h), (4 * mw, 4 * mh + 1));
+        let ours = |row: usize, col: usize| env.map().texels()[row * mw + col];
+        assert_eq!(texels[0], ours(0, 0));
+        assert_eq!(texels[(h - 1) * w + w - 1], ours(mh - 1, mw - 1));
+        assert_eq!(texels[(4 * 5 + 2) * w + 4 * 7 + 1], ours(5, 7));
         // The spot-only export is unchanged: no hide_emitters there.
         let (_dir, _, spot) = exported();
         let spot_xml = std::fs::read_to_string(&spot.scene).unwrap();

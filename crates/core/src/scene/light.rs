@@ -796,7 +796,8 @@ impl SpotLight {
 
 /// Parameters of the three-point preset (§8.2): key ~15° left of and ~30° above the
 /// camera, fill ~15° right and lower at 1/10 of the key, rim from behind onto the top,
-/// a little weaker than the key.
+/// a little weaker than the key — as spot lights, or in the cinematic style as an area
+/// key and a sky.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ThreePointParams {
@@ -812,7 +813,37 @@ pub struct ThreePointParams {
     /// Light distance from the volume centre as a multiple of the camera's distance.
     #[serde(default = "default_distance")]
     pub distance_scale: f32,
+    /// `spots` (the thesis's key, fill and rim spot lights) or `cinematic` (the key as a
+    /// soft area light, fill and rim as a sky). Not written when `spots`, so the content
+    /// addresses of the thesis's scenes stay what they were.
+    #[serde(default, skip_serializing_if = "LightingStyle::is_spots")]
+    pub style: LightingStyle,
 }
+
+/// The light sources of the three-point layout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LightingStyle {
+    /// Key, fill and rim spot lights (§8.2).
+    #[default]
+    Spots,
+    /// What cinematic volume renderers light with: the key as a square area light at the
+    /// key's place, facing the volume, subtending [`CINEMATIC_KEY_DEGREES`] and sending
+    /// the key spot's intensity along its axis (`L·A = key_intensity`); the fill and rim
+    /// replaced by a sky (the default gradient, its zenith the camera's up) whose fluence
+    /// `4π·L̄` equals what the fill and rim spots send to the volume's centre,
+    /// `(fill_ratio + rim_ratio)·key_intensity / d²`.
+    Cinematic,
+}
+
+impl LightingStyle {
+    fn is_spots(&self) -> bool {
+        *self == LightingStyle::Spots
+    }
+}
+
+/// The angle the cinematic key light's side subtends from the volume's centre, degrees.
+pub const CINEMATIC_KEY_DEGREES: f32 = 20.0;
 
 fn default_key() -> f32 {
     100.0
@@ -834,6 +865,7 @@ impl Default for ThreePointParams {
             fill_ratio: default_fill_ratio(),
             rim_ratio: default_rim_ratio(),
             distance_scale: default_distance(),
+            style: LightingStyle::Spots,
         }
     }
 }
@@ -873,6 +905,9 @@ pub fn three_point(
         let cone = half.clamp(5.0, 89.0);
         SpotLight::new(position, target, Vec3::splat(intensity), cone, cone * 0.75).map(Light::Spot)
     };
+    if params.style == LightingStyle::Cinematic {
+        return cinematic(camera, bounds, params, centre + dir(-15.0, 30.0) * distance);
+    }
     let key = spot(
         centre + dir(-15.0, 30.0) * distance,
         centre,
@@ -893,6 +928,51 @@ pub fn three_point(
             top,
             params.key_intensity * params.rim_ratio,
         )?);
+    }
+    Ok(lights)
+}
+
+/// The cinematic style's key area light at `key_position` and its sky
+/// ([`LightingStyle::Cinematic`]).
+fn cinematic(
+    camera: &Camera,
+    bounds: &Aabb,
+    params: &ThreePointParams,
+    key_position: Vec3,
+) -> Result<Vec<Light>> {
+    let centre = bounds.center();
+    let d = (key_position - centre).length();
+    let side = 2.0 * d * (CINEMATIC_KEY_DEGREES.to_radians() / 2.0).tan();
+    let radiance = Vec3::splat(params.key_intensity / (side * side));
+    let key = AreaLight::new(
+        AreaShape::Rect,
+        key_position,
+        centre - key_position,
+        Some(camera.up()),
+        [side, side],
+        radiance,
+    )?;
+    let colours = SkyColours {
+        zenith: Vec3::from(DEFAULT_ZENITH),
+        horizon: Vec3::from(DEFAULT_HORIZON),
+        ground: Vec3::from(DEFAULT_GROUND),
+    };
+    let map = EnvironmentLight::sky_map(&colours)?;
+    let mean_radiance = (map.integral().x + map.integral().y + map.integral().z) / (3.0 * 4.0 * PI);
+    let fluence = (params.fill_ratio + params.rim_ratio) * params.key_intensity / (d * d);
+    let mut lights = vec![Light::Area(key)];
+    if fluence > 0.0 {
+        let scale = Vec3::splat(fluence / (4.0 * PI * mean_radiance));
+        let sky = EnvironmentLight::new(
+            EnvironmentSource::Sky(colours),
+            map,
+            scale,
+            camera.up(),
+            0.0,
+            None,
+            bounds,
+        )?;
+        lights.push(Light::Environment(Arc::new(sky)));
     }
     Ok(lights)
 }
@@ -1052,5 +1132,44 @@ mod tests {
         assert!(fill.dot(cam.right()) > 0.0 && fill.dot(cam.up()) < key.dot(cam.up()));
         assert!(rim.dot(cam.forward()) > 0.0, "rim is behind the volume");
         assert!((lights[1].power().x / lights[0].power().x - 0.1).abs() < 1e-4);
+    }
+
+    /// The cinematic style: the key as a square facing the centre from the key spot's
+    /// place with the key spot's on-axis intensity, and a sky whose fluence at the centre
+    /// is what the fill and rim spots send there.
+    #[test]
+    fn cinematic_layout_keeps_the_key_and_the_fill_and_rim_fluence() {
+        let cam = Camera::create(&super::super::CameraParams::default()).unwrap();
+        let spots = three_point(&cam, &Aabb::unit(), &ThreePointParams::default()).unwrap();
+        let params = ThreePointParams {
+            style: LightingStyle::Cinematic,
+            ..ThreePointParams::default()
+        };
+        let lights = three_point(&cam, &Aabb::unit(), &params).unwrap();
+        let [Light::Area(key), Light::Environment(sky)] = lights.as_slice() else {
+            panic!("{lights:?}")
+        };
+        let c = Vec3::splat(0.5);
+        assert!((key.centre() - spots[0].position()).length() < 1e-5);
+        assert!(key.normal().dot((c - key.centre()).normalize()) > 0.9999);
+        let intensity = key.radiance().x * key.area();
+        assert!((intensity / params.key_intensity - 1.0).abs() < 1e-5);
+        let d = (key.centre() - c).length();
+        let power = sky.power();
+        let fluence =
+            (power.x + power.y + power.z) / 3.0 / (PI * sky_radius(&Aabb::unit()).powi(2));
+        let expected = (params.fill_ratio + params.rim_ratio) * params.key_intensity / (d * d);
+        assert!(
+            (fluence / expected - 1.0).abs() < 0.02,
+            "{fluence} vs {expected}"
+        );
+        assert_eq!(sky.up(), cam.up());
+        // The spot style is the default and is not written.
+        let toml = toml::to_string(&ThreePointParams::default()).unwrap();
+        assert!(!toml.contains("style"), "{toml}");
+    }
+
+    fn sky_radius(bounds: &Aabb) -> f32 {
+        bounds.diagonal() * 0.5
     }
 }

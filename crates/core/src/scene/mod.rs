@@ -55,8 +55,8 @@ pub use environment::{EnvironmentLight, EnvironmentSource, SKY_MAP_WIDTH, SkyCol
 pub use envmap::EnvironmentMap;
 pub use export::{MitsubaExport, export_mitsuba};
 pub use light::{
-    Incident, Intensity, Light, LightContext, LightKind, LightParams, PointLight, SpotFalloff,
-    SpotLight, ThreePointParams, three_point,
+    CINEMATIC_KEY_DEGREES, Incident, Intensity, Light, LightContext, LightKind, LightParams,
+    LightingStyle, PointLight, SpotFalloff, SpotLight, ThreePointParams, three_point,
 };
 pub use params::{
     BoxParams, NormalizeKind, PhaseParams, SceneParams, VolumeParams, build_medium, load_params,
@@ -206,6 +206,38 @@ impl Scene {
         let mut s = self.clone();
         s.params.integrator = integrator.clone();
         s.integrator = integrator;
+        Ok(s)
+    }
+
+    /// A copy whose `[three_point]` lights are of another style (the scene's other lights
+    /// kept); an error naming `three_point` if the scene has none.
+    pub fn with_lighting_style(&self, style: LightingStyle) -> Result<Self> {
+        let Some(tp) = &self.params.three_point else {
+            return Err(crate::error::Error::parameter(
+                "three_point",
+                "(none)",
+                "a [three_point] table whose lights take the style",
+            ));
+        };
+        let tp = ThreePointParams {
+            style,
+            ..tp.clone()
+        };
+        let before = three_point(
+            &self.camera,
+            &self.medium.bounds(),
+            self.params.three_point.as_ref().expect("checked"),
+        )
+        .map_err(|e| e.within("three_point"))?
+        .len();
+        let preset = three_point(&self.camera, &self.medium.bounds(), &tp)
+            .map_err(|e| e.within("three_point"))?;
+        let mut s = self.clone();
+        s.lights = preset
+            .into_iter()
+            .chain(self.lights[before..].iter().cloned())
+            .collect();
+        s.params.three_point = Some(tp);
         Ok(s)
     }
 

@@ -47,6 +47,8 @@ pub(crate) enum BenchConfig {
     OneThread,
     /// The transmittance and scattering caches.
     Cached,
+    /// The default under cinematic light (area key light and sky).
+    Cinematic,
     /// Single scattering: the marcher against the path tracer.
     Efficiency,
 }
@@ -106,16 +108,19 @@ pub(crate) struct BenchOptions {
     pub(crate) budget_samples: u32,
     /// With the reference mode: race the routes to a faster reference too.
     pub(crate) routes: bool,
+    /// The style of the scene's `[three_point]` lights (the scene's own when `None`).
+    pub(crate) lighting: Option<volphot::LightingStyle>,
 }
 
 /// Every configuration, in the order they run.
-const ALL: [BenchConfig; 7] = [
+const ALL: [BenchConfig; 8] = [
     BenchConfig::Marched,
     BenchConfig::Exact,
     BenchConfig::EverySample,
     BenchConfig::Thinned,
     BenchConfig::OneThread,
     BenchConfig::Cached,
+    BenchConfig::Cinematic,
     BenchConfig::Efficiency,
 ];
 
@@ -264,6 +269,23 @@ pub(super) fn default_scene(name: &str) -> Result<PathBuf> {
         })
 }
 
+/// Sets the style of the scene's `[three_point]` lights (`--lighting`).
+pub(super) fn set_lighting(
+    params: &mut volphot::SceneParams,
+    lighting: Option<volphot::LightingStyle>,
+) -> Result<()> {
+    let Some(style) = lighting else {
+        return Ok(());
+    };
+    let Some(tp) = params.three_point.as_mut() else {
+        anyhow::bail!(
+            "--lighting: the scene has no [three_point] table whose lights it could restyle"
+        );
+    };
+    tp.style = style;
+    Ok(())
+}
+
 /// The integrator of a configuration, from the scene's own (thinning off unless the
 /// configuration is the default: `thinned`, `one-thread` or `efficiency`).
 fn configure(config: BenchConfig, base: &IntegratorParams) -> IntegratorParams {
@@ -283,7 +305,7 @@ fn configure(config: BenchConfig, base: &IntegratorParams) -> IntegratorParams {
             s.shadow_stride = 0;
             (s.shadow_cache, s.ms_cache) = (0, 0);
         }
-        BenchConfig::Thinned | BenchConfig::OneThread => {
+        BenchConfig::Thinned | BenchConfig::OneThread | BenchConfig::Cinematic => {
             s.shadow = ShadowEstimator::Exact;
             s.thin_below = DEFAULT_THIN_BELOW;
             (s.shadow_cache, s.ms_cache) = (0, 0);
@@ -307,6 +329,7 @@ fn config_name(config: BenchConfig) -> &'static str {
         BenchConfig::Thinned => "thinned",
         BenchConfig::OneThread => "one-thread",
         BenchConfig::Cached => "cached",
+        BenchConfig::Cinematic => "cinematic",
         BenchConfig::Efficiency => "efficiency",
     }
 }
@@ -326,6 +349,8 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
         params.camera.resolution = resolution;
     }
     set_sigma_t(&mut params, &args.sigma_t)
+        .with_context(|| format!("benchmark scene {}", scene_path.display()))?;
+    set_lighting(&mut params, args.lighting)
         .with_context(|| format!("benchmark scene {}", scene_path.display()))?;
     match args.mode {
         BenchMode::Peer => return peer::run(args, &scene_path, &params),
@@ -347,7 +372,12 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
         efficiency: None,
     };
     for &config in configs.iter().filter(|c| **c != BenchConfig::Efficiency) {
-        let s = scene.with_integrator(configure(config, scene.integrator()))?;
+        let lit = if config == BenchConfig::Cinematic {
+            scene.with_lighting_style(volphot::LightingStyle::Cinematic)?
+        } else {
+            scene.clone()
+        };
+        let s = lit.with_integrator(configure(config, scene.integrator()))?;
         let pool = if config == BenchConfig::OneThread {
             &single_pool
         } else {

@@ -176,6 +176,7 @@ pub(super) fn case_params(
 ) -> Result<SceneParams> {
     let mut p = params.clone();
     super::with_sigma_t(&mut p, t)?;
+    super::set_lighting(&mut p, args.lighting)?;
     if args.quick {
         p.camera.resolution = [128, 128];
     }
