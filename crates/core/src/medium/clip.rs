@@ -242,6 +242,25 @@ impl ClipRegion {
         faces
     }
 
+    /// The same region with its crop box pushed out by `margin` wherever the crop box lies
+    /// on `bounds` (beyond which the medium is empty anyway): the boundary a peer renderer
+    /// can hold the medium in without its ray-spawn offset eating into the volume's faces.
+    pub fn with_margin_on(&self, bounds: Aabb, margin: f32) -> ClipRegion {
+        let mut crop = self.crop;
+        for a in 0..3 {
+            if crop.min[a] <= bounds.min[a] {
+                crop.min[a] -= margin;
+            }
+            if crop.max[a] >= bounds.max[a] {
+                crop.max[a] += margin;
+            }
+        }
+        ClipRegion {
+            crop,
+            planes: self.planes.clone(),
+        }
+    }
+
     /// The region's volume (from its faces, by the divergence theorem).
     pub fn volume(&self) -> f32 {
         self.faces()

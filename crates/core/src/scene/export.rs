@@ -41,6 +41,8 @@ pub struct MitsubaExport {
     pub grid: PathBuf,
     /// The environment maps it reads (PFM), one per environment light.
     pub maps: Vec<PathBuf>,
+    /// The clipped region's boundary (OBJ) that holds the medium, with `[clip]`.
+    pub clip: Option<PathBuf>,
 }
 
 /// Writes `scene` for Mitsuba 3 into `dir` as `NAME.xml` and `NAME.vol`.
@@ -80,27 +82,38 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, name: &str) -> Result<MitsubaEx
             _ => None,
         });
     }
-    write_atomic(
-        &xml,
-        scene_xml(scene, &format!("{name}.vol"), &env_files).as_bytes(),
-    )?;
+    let clip = match scene.medium().clip_region() {
+        Some(region) => {
+            let bounds = scene.medium().bounds();
+            let margin = CUBE_MARGIN * bounds.extent().max_element();
+            let path = dir.join(format!("{name}-clip.obj"));
+            write_atomic(
+                &path,
+                clip_obj(&region.with_margin_on(bounds, margin)).as_bytes(),
+            )?;
+            Some(path)
+        }
+        None => None,
+    };
+    let clip_file = clip.as_ref().map(|_| format!("{name}-clip.obj"));
+    let text = scene_xml(
+        scene,
+        &format!("{name}.vol"),
+        &env_files,
+        clip_file.as_deref(),
+    );
+    write_atomic(&xml, text.as_bytes())?;
     Ok(MitsubaExport {
         scene: xml,
         grid,
         maps,
+        clip,
     })
 }
 
 /// What Mitsuba's volumetric path tracer cannot render the same way is refused, naming the
 /// key.
 fn check_exportable(scene: &Scene) -> Result<()> {
-    if scene.medium().clip_region().is_some() {
-        return Err(Error::parameter(
-            "clip",
-            "a crop box or clip planes",
-            "no [clip] for the Mitsuba export yet: it writes the whole grid inside a null cube, so Mitsuba would render the unclipped volume; export the scene without [clip]",
-        ));
-    }
     let base = scene.params().sigma.emission.unwrap_or([0.0; 3]);
     let emits = scene.integrator().emission && base != [0.0; 3];
     if emits {
@@ -196,13 +209,21 @@ fn triple(v: [f32; 3]) -> String {
 }
 
 /// The scene as Mitsuba 3 XML.
-fn scene_xml(scene: &Scene, grid_file: &str, env_files: &[Option<String>]) -> String {
+fn scene_xml(
+    scene: &Scene,
+    grid_file: &str,
+    env_files: &[Option<String>],
+    clip_mesh: Option<&str>,
+) -> String {
     let mut x = String::new();
     let extended = scene.lights().iter().any(|l| !l.is_delta());
     integrator_xml(&mut x, scene.params(), extended);
     sensor_xml(&mut x, scene);
     medium_xml(&mut x, scene.medium(), grid_file);
-    bounding_cube_xml(&mut x, scene.medium().bounds());
+    match clip_mesh {
+        Some(file) => clip_mesh_xml(&mut x, file),
+        None => bounding_cube_xml(&mut x, scene.medium().bounds()),
+    }
     for (i, light) in scene.lights().iter().enumerate() {
         emitter_xml(&mut x, light, env_files[i].as_deref());
     }
@@ -309,6 +330,36 @@ fn medium_xml(x: &mut String, medium: &Medium, grid_file: &str) {
 /// medium is empty), so a larger cube changes nothing else.
 pub const CUBE_MARGIN: f32 = 0.01;
 
+/// A clipped volume's region as an OBJ mesh (each convex face a fan of triangles, wound
+/// counter-clockwise seen from outside, so its normals point out of the medium).
+fn clip_obj(region: &crate::medium::ClipRegion) -> String {
+    let mut obj = String::from("# volphot: the clipped region that holds the medium\n");
+    let mut base = 1;
+    for face in region.faces() {
+        for v in &face {
+            let _ = writeln!(obj, "v {} {} {}", v.x, v.y, v.z);
+        }
+        for i in 1..face.len() - 1 {
+            let _ = writeln!(obj, "f {} {} {}", base, base + i, base + i + 1);
+        }
+        base += face.len();
+    }
+    obj
+}
+
+/// The clipped region holds the medium: a null BSDF on its boundary, the geometric clip
+/// exactly (the grid itself is the whole volume's). A face on a cut plane meets Mitsuba's
+/// ray-spawn offset (about 1.5·10⁻⁴ of the scene's size is skipped behind it); the faces on
+/// the volume's box are pushed out by [`CUBE_MARGIN`] as the cube's are.
+fn clip_mesh_xml(x: &mut String, file: &str) {
+    let _ = writeln!(x, "    <shape type=\"obj\">");
+    let _ = writeln!(x, "        <string name=\"filename\" value=\"{file}\"/>");
+    let _ = writeln!(x, "        <boolean name=\"face_normals\" value=\"true\"/>");
+    let _ = writeln!(x, "        <bsdf type=\"null\"/>");
+    let _ = writeln!(x, "        <ref name=\"interior\" id=\"medium\"/>");
+    let _ = writeln!(x, "    </shape>");
+}
+
 /// The cube that holds the medium: a null BSDF a little past the volume's box.
 fn bounding_cube_xml(x: &mut String, bounds: Aabb) {
     let margin = CUBE_MARGIN * bounds.extent().max_element();
@@ -385,10 +436,6 @@ fn emitter_xml(x: &mut String, light: &Light, env_file: Option<&str>) {
             let _ = writeln!(x, "    <emitter type=\"envmap\">");
             let file = env_file.expect("an environment's map file");
             let _ = writeln!(x, "        <string name=\"filename\" value=\"{file}\"/>");
-            let _ = writeln!(
-                x,
-                "        <string name=\"filter_type\" value=\"nearest\"/>"
-            );
             let _ = writeln!(x, "        <transform name=\"to_world\">");
             let [c0, c1, c2] = e.to_world_columns();
             let _ = writeln!(
