@@ -89,7 +89,7 @@ pub use medium::{
     CropBoxParams, DEFAULT_BRICK_SIZE, FreePath, HalfSpace, MIN_MEAN_FREE_PATH, MajorantGrid,
     MajorantSegment, MajorantSegments, MappingKind, Medium, MediumSettings, Pgm, Phase,
     SigmaMapping, SigmaParams, SigmaReport, Split, THESIS_ALBEDO, THESIS_T, TransferFunction,
-    TransferKind, TransferParams, blocked_depth, parse_pgm, sample_interaction_march,
+    TransferKind, TransferParams, ViewFrame, blocked_depth, parse_pgm, sample_interaction_march,
     sample_interaction_thesis, write_pgm,
 };
 pub use photon::{

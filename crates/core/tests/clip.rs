@@ -181,3 +181,50 @@ fn bad_clips_are_named_in_the_scene_file() {
         assert!(err.contains(expected), "{clip}: {err}");
     }
 }
+
+#[test]
+fn a_view_aligned_plane_keeps_the_far_side_of_the_look_at_point() {
+    // The camera looks along +x at the centre: a view plane with normal [0, 0, 1] (forward)
+    // through the look-at point is the world plane x = 0.5, whatever the camera's up.
+    let view = scene(
+        "",
+        "[clip]\nspace = \"view\"\nplane = { normal = [0, 0, 1], offset = 0 }",
+        false,
+    );
+    let world = scene("", CLIP_PLANE, false);
+    let medium = view.medium();
+    assert_eq!(medium.density(Vec3::new(0.49, 0.5, 0.5)), 0.0);
+    assert!(medium.density(Vec3::new(0.51, 0.5, 0.5)) > 0.0);
+    let ray = Ray::new(Vec3::new(-1.0, 0.37, 0.61), Vec3::X);
+    let (a, b) = (
+        medium.clip(&ray).unwrap(),
+        world.medium().clip(&ray).unwrap(),
+    );
+    assert!(
+        (a.0 - b.0).abs() < 1e-5 && (a.1 - b.1).abs() < 1e-5,
+        "{a:?} {b:?}"
+    );
+    // An offset towards the eye by more than the volume's radius keeps it whole.
+    let whole = scene(
+        "",
+        "[clip]\nspace = \"view\"\nplane = { normal = [0, 0, 1], offset = -1 }",
+        false,
+    );
+    assert!(whole.medium().density(Vec3::new(0.05, 0.5, 0.5)) > 0.0);
+    // A crop box has no meaning in the view's frame.
+    let params = volphot::SceneParams::from_toml(
+        "[volume]\nphantom = { name = \"constant\", resolution = [4, 4, 4] }\n[three_point]\n[clip]\nspace = \"view\"\nbox = { p0 = [0, 0, 0], p1 = [1, 1, 1] }\n",
+        std::path::Path::new("inline.toml"),
+    );
+    let err = params
+        .and_then(|p| {
+            volphot::Scene::from_params(
+                &p,
+                std::path::Path::new("."),
+                &volphot::SearchPath::new(vec![]),
+            )
+        })
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("clip.box"), "{err}");
+}

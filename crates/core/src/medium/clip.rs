@@ -25,6 +25,24 @@ pub enum ClipSpace {
     Volume,
     /// World coordinates, as the camera and the lights are placed.
     World,
+    /// The camera's frame at its look-at point (world units): `x` to the image's right,
+    /// `y` up, `z` forward, from the eye towards the look-at point. `normal = [0, 0, 1]`,
+    /// `offset = 0` keeps the far half and opens the volume towards the camera, whatever
+    /// the scene — a view-aligned clip plane. Planes only (a crop box is axis-aligned).
+    View,
+}
+
+/// The camera's frame, for `space = "view"`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewFrame {
+    /// The look-at point (the frame's origin).
+    pub origin: Vec3,
+    /// The image's right.
+    pub right: Vec3,
+    /// The image's up.
+    pub up: Vec3,
+    /// From the eye towards the look-at point.
+    pub forward: Vec3,
 }
 
 /// One half-space: the kept side is where `normal · x ≥ offset` (the normal points into
@@ -91,6 +109,13 @@ impl ClipParams {
     /// Checks what can be checked without the volume: finite numbers, a normal that is not
     /// zero, a box whose corners are ordered. Keys are relative to `[clip]`.
     pub fn validate(&self) -> Result<()> {
+        if self.space == ClipSpace::View && self.crop.is_some() {
+            return Err(Error::parameter(
+                "box",
+                "(given with space = \"view\")",
+                "a crop box in space = \"volume\" or \"world\" (it is axis-aligned); in the view's frame only planes",
+            ));
+        }
         if let Some(b) = &self.crop {
             for (name, corner) in [("box.p0", b.p0), ("box.p1", b.p1)] {
                 if corner.iter().any(|v| !v.is_finite()) {
@@ -151,15 +176,29 @@ impl ClipRegion {
     /// The region `params` keep of a volume in `bounds`; `None` when nothing is clipped.
     /// Errors name the key (relative to `[clip]`) and say why: a bad number, or a region
     /// that keeps nothing of the volume.
-    pub fn create(params: &ClipParams, bounds: Aabb) -> Result<Option<Self>> {
+    pub fn create(
+        params: &ClipParams,
+        bounds: Aabb,
+        view: Option<&ViewFrame>,
+    ) -> Result<Option<Self>> {
         if params.is_empty() {
             return Ok(None);
         }
         params.validate()?;
+        let view = match (params.space, view) {
+            (ClipSpace::View, None) => {
+                return Err(Error::parameter(
+                    "space",
+                    "\"view\"",
+                    "\"volume\" or \"world\" where there is no camera",
+                ));
+            }
+            (_, v) => v.copied(),
+        };
         let extent = bounds.extent();
         let to_world = |q: [f32; 3]| match params.space {
             ClipSpace::Volume => bounds.min + Vec3::from(q) * extent,
-            ClipSpace::World => Vec3::from(q),
+            ClipSpace::World | ClipSpace::View => Vec3::from(q),
         };
         let crop = match &params.crop {
             Some(b) => {
@@ -182,7 +221,7 @@ impl ClipRegion {
         let planes = params
             .named_planes()
             .into_iter()
-            .map(|(_, p)| world_half_space(p, params.space, bounds))
+            .map(|(_, p)| world_half_space(p, params.space, bounds, view.as_ref()))
             .collect();
         let region = ClipRegion { crop, planes };
         if region.faces().is_empty() {
@@ -277,10 +316,21 @@ impl ClipRegion {
 
 /// A plane of `space` in world coordinates. A volume-space point is `q = (x − min) / e`
 /// per axis, so `n · q ≥ d` is `m · x ≥ d + m · min` with `m = n / e`, normalised.
-fn world_half_space(p: ClipPlaneParams, space: ClipSpace, bounds: Aabb) -> HalfSpace {
+fn world_half_space(
+    p: ClipPlaneParams,
+    space: ClipSpace,
+    bounds: Aabb,
+    view: Option<&ViewFrame>,
+) -> HalfSpace {
     let n = Vec3::from(p.normal);
     let (m, offset) = match space {
         ClipSpace::World => (n, p.offset),
+        // `n · (R^T (x − o)) ≥ d` is `(R n) · x ≥ d + (R n) · o`, `R` the frame's columns.
+        ClipSpace::View => {
+            let v = view.expect("checked in create");
+            let m = v.right * n.x + v.up * n.y + v.forward * n.z;
+            (m, p.offset + m.dot(v.origin))
+        }
         ClipSpace::Volume => {
             let m = n / bounds.extent();
             (m, p.offset + m.dot(bounds.min))
@@ -395,7 +445,7 @@ mod tests {
     }
 
     fn region(params: ClipParams, bounds: Aabb) -> ClipRegion {
-        ClipRegion::create(&params, bounds).unwrap().unwrap()
+        ClipRegion::create(&params, bounds, None).unwrap().unwrap()
     }
 
     #[test]
@@ -496,7 +546,7 @@ mod tests {
     #[test]
     fn bad_clips_name_their_key() {
         let err = |p: ClipParams| {
-            ClipRegion::create(&p, Aabb::unit())
+            ClipRegion::create(&p, Aabb::unit(), None)
                 .unwrap_err()
                 .to_string()
         };
@@ -537,7 +587,7 @@ mod tests {
         });
         assert!(e.contains("keep nothing"), "{e}");
         assert!(
-            ClipRegion::create(&ClipParams::default(), Aabb::unit())
+            ClipRegion::create(&ClipParams::default(), Aabb::unit(), None)
                 .unwrap()
                 .is_none()
         );

@@ -25,7 +25,9 @@ mod transfer;
 
 use glam::Vec3;
 
-pub use clip::{ClipParams, ClipPlaneParams, ClipRegion, ClipSpace, CropBoxParams, HalfSpace};
+pub use clip::{
+    ClipParams, ClipPlaneParams, ClipRegion, ClipSpace, CropBoxParams, HalfSpace, ViewFrame,
+};
 pub use colour::ColourTransfer;
 pub use free_path::{FreePath, sample_interaction_march, sample_interaction_thesis};
 pub use majorant::{MajorantGrid, MajorantSegment, MajorantSegments};
@@ -68,6 +70,8 @@ pub struct MediumSettings {
     pub brick_size: usize,
     /// What of the volume is kept (nothing clipped by default).
     pub clip: ClipParams,
+    /// The camera's frame, for a clip in `space = "view"`.
+    pub clip_view: Option<ViewFrame>,
 }
 
 impl Default for MediumSettings {
@@ -84,6 +88,7 @@ impl Default for MediumSettings {
             reconstruction: Reconstruction::Trilinear,
             brick_size: DEFAULT_BRICK_SIZE,
             clip: ClipParams::default(),
+            clip_view: None,
         }
     }
 }
@@ -206,8 +211,12 @@ impl Medium {
             .map(|&d| settings.transfer.apply(d))
             .collect();
         let density = volume.grid().with_values(values);
-        let clip_region =
-            ClipRegion::create(&settings.clip, density.bounds()).map_err(|e| e.within("clip"))?;
+        let clip_region = ClipRegion::create(
+            &settings.clip,
+            density.bounds(),
+            settings.clip_view.as_ref(),
+        )
+        .map_err(|e| e.within("clip"))?;
         let d_min = density.min_positive().unwrap_or(0.0);
         let (_, d_max) = density.min_max();
         let largest_extent = density.bounds().largest_extent();

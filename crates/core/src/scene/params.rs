@@ -13,8 +13,8 @@ use super::light::{Light, LightParams, ThreePointParams};
 use super::settings::{FilmParams, IntegratorParams};
 use crate::error::{Error, Result};
 use crate::medium::{
-    ClipParams, DEFAULT_BRICK_SIZE, MappingKind, Medium, MediumSettings, Phase, SigmaMapping,
-    SigmaParams, TransferFunction, TransferParams,
+    ClipParams, ClipSpace, DEFAULT_BRICK_SIZE, MappingKind, Medium, MediumSettings, Phase,
+    SigmaMapping, SigmaParams, TransferFunction, TransferParams, ViewFrame,
 };
 use crate::volume::{
     ByteOrder, DatasetOverrides, DicomInput, FileRequest, Normalization, PhantomParams, Placement,
@@ -555,6 +555,7 @@ pub fn build_medium(params: &SceneParams, volume: &Volume, base: &Path) -> Resul
             reconstruction: params.volume.reconstruction,
             brick_size: params.volume.brick_size,
             clip: params.clip.clone(),
+            clip_view: view_frame(params)?,
         },
     )
     .map_err(|e| match e {
@@ -562,6 +563,20 @@ pub fn build_medium(params: &SceneParams, volume: &Volume, base: &Path) -> Resul
         other => other,
     })
 }
+/// The camera's frame for a clip in the view's space (`None` for any other clip).
+fn view_frame(params: &SceneParams) -> Result<Option<ViewFrame>> {
+    if params.clip.space != ClipSpace::View {
+        return Ok(None);
+    }
+    let camera = super::Camera::create(&params.camera).map_err(|e| e.within("camera"))?;
+    Ok(Some(ViewFrame {
+        origin: camera.look_at(),
+        right: camera.right(),
+        up: camera.up(),
+        forward: camera.forward(),
+    }))
+}
+
 /// The first number of a scene (its dotted key and value) that no 32-bit float holds: the
 /// scene's floats are `f32`, and serde turns `t = 1e39` into infinity without a word.
 fn beyond_f32(value: &toml::Value, key: &str) -> Option<(String, f64)> {

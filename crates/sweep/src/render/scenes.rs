@@ -50,8 +50,14 @@ impl Caches {
         })?;
         // Everything `build_medium` reads besides the volume: a key that missed one (the
         // clip) would hand one cell another's medium.
+        // A clip in the view's space moves with the camera.
+        let view = if params.clip.space == volphot::ClipSpace::View {
+            serde_json::to_string(&params.camera)?
+        } else {
+            String::new()
+        };
         let medium_key = format!(
-            "{volume_key}|{}|{}|{}|{}",
+            "{volume_key}|{}|{}|{}|{}|{view}",
             serde_json::to_string(&params.transfer)?,
             serde_json::to_string(&params.sigma)?,
             serde_json::to_string(&params.phase)?,
