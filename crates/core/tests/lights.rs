@@ -131,6 +131,25 @@ fn photon_mapping_lit_by_the_environment_approaches_the_uniform_field() {
     );
 }
 
+#[test]
+fn the_consistent_estimators_light_with_the_environment_too() {
+    // Progressive, beam and plane estimates are built from the same emitted photons: lit
+    // by the grey sky, each total approaches the uniform field as the point estimate does.
+    for estimator in ["progressive", "beam", "plane"] {
+        let integrator = format!(
+            "volume_photons = 50000\nnused = 100\nmaxdist = 0.3\nstepsize = 0.01\nestimator = \"{estimator}\"\niterations = 4"
+        );
+        let scene = cube(1.5, 1.0, 0.0, GREY_SKY, &integrator);
+        let expected = scattered_in_uniform_field(&scene, 1.5, Vec3::splat(0.7));
+        let out = render(&scene, &Control::none()).unwrap();
+        let total = mean(&out.film, Layer::Single) + mean(&out.film, Layer::Multiple);
+        assert!(
+            (total.x / expected.x - 1.0).abs() < 0.08,
+            "{estimator}: {total} against {expected}"
+        );
+    }
+}
+
 const DISC: &str = r#"
 [[lights]]
 type = "disc"

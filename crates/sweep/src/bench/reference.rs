@@ -25,7 +25,7 @@ use volphot::{
 use super::{BenchOptions, Machine};
 use crate::analyse::mse_against_noisy_reference;
 use crate::plan::ReferenceMethod;
-use crate::store::{ReferencePool, ReferenceRecord, VERSION, reference_hash, volume_identity};
+use crate::store::{ReferencePool, ReferenceRecord, VERSION, inputs_identity, reference_hash};
 
 /// The RMSEs the time is reported for.
 const TARGETS: [f64; 2] = [0.02, 0.01];
@@ -267,7 +267,7 @@ fn pooled_reference(
     pool: &ReferencePool,
 ) -> Result<Reference> {
     let passes = args.reference_passes.unwrap_or(1024);
-    let key = reference_hash(params, &volume_identity(params, base)?)?;
+    let key = reference_hash(params, &inputs_identity(params, base)?)?;
     let _lock = pool.lock(&key)?;
     let saved = pool.saved_state(&key).unwrap_or_else(|why| {
         eprintln!("reference {key} in the pool is damaged ({why}); rendering it again");

@@ -6,7 +6,7 @@ use volphot::{IntegratorParams, Method, SceneParams, validate_params};
 
 use super::keys::{flatten_set, set_key};
 use super::{CellSpec, ReferenceMethod, ReferenceSpec};
-use crate::store::{reference_hash, volume_identity};
+use crate::store::{inputs_identity, reference_hash};
 
 /// The scene a reference renders: the cell's physics (volume, transfer function, σ,
 /// camera, lights) with the reference's own integrator settings — none of the cell's — so
@@ -55,5 +55,5 @@ pub(crate) fn reference_params(params: &SceneParams, spec: &ReferenceSpec) -> Re
 /// so a reference can be refined in place).
 pub(crate) fn reference_key(spec: &CellSpec, reference: &ReferenceSpec) -> Result<String> {
     let p = reference_params(&spec.params, reference)?;
-    reference_hash(&p, &volume_identity(&spec.params, &spec.base_dir)?)
+    reference_hash(&p, &inputs_identity(&spec.params, &spec.base_dir)?)
 }

@@ -104,14 +104,28 @@ fn without_field(text: &str, key: &str, value: f32) -> Result<String> {
     )
 }
 
+/// The identity of a scene's inputs besides its parameters: the volume's, followed by the
+/// content of every light's file (an environment map), so editing a map in place gives
+/// new addresses. Without such files it is the volume's identity alone, so the addresses
+/// of scenes without them are what they were.
+pub(crate) fn inputs_identity(params: &SceneParams, base: &Path) -> Result<String> {
+    let mut text = volume_identity(params, base)?;
+    for file in params.lights.iter().filter_map(|l| l.file.as_ref()) {
+        let path = base.join(file);
+        text += "\n";
+        text += &volphot::sha256_content(&path).unwrap_or_else(|_| path.display().to_string());
+    }
+    Ok(text)
+}
+
 /// The content address of a cell: version, effective parameters, volume (and transfer
-/// function file) identity.
+/// function and environment map file) identity.
 /// `base` resolves the scene's relative file paths.
 pub(crate) fn cell_hash(params: &SceneParams, base: &Path) -> Result<String> {
     let mut text = format!("volphot-sweep {VERSION}\n");
     text += &addressed(params)?;
     text += "\n";
-    text += &volume_identity(params, base)?;
+    text += &inputs_identity(params, base)?;
     if let Some(f) = &params.transfer.file {
         let path = base.join(f);
         text += "\n";
@@ -275,5 +289,29 @@ mod tests {
         p.integrator.reference_spp = 4096;
         assert_eq!(a, reference_hash(&p, "vol").unwrap());
         assert_ne!(a, reference_hash(&p, "other volume").unwrap());
+    }
+
+    /// An environment map is part of what a cell renders: editing it in place gives new
+    /// addresses, and a scene without one keeps the volume's identity alone.
+    #[test]
+    fn an_environment_map_s_content_is_part_of_the_address() {
+        let dir = tempfile::tempdir().unwrap();
+        let map = dir.path().join("sky.pfm");
+        volphot::write_pfm(&map, 2, 1, &[glam::Vec3::ONE, glam::Vec3::splat(2.0)]).unwrap();
+        let lit = params("[[lights]]\ntype = \"environment\"\nfile = \"sky.pfm\"\n");
+        let plain = params("");
+        assert_eq!(
+            inputs_identity(&plain, dir.path()).unwrap(),
+            volume_identity(&plain, dir.path()).unwrap()
+        );
+        let before = cell_hash(&lit, dir.path()).unwrap();
+        let reference_before =
+            reference_hash(&lit, &inputs_identity(&lit, dir.path()).unwrap()).unwrap();
+        volphot::write_pfm(&map, 2, 1, &[glam::Vec3::ONE, glam::Vec3::splat(3.0)]).unwrap();
+        assert_ne!(before, cell_hash(&lit, dir.path()).unwrap());
+        assert_ne!(
+            reference_before,
+            reference_hash(&lit, &inputs_identity(&lit, dir.path()).unwrap()).unwrap()
+        );
     }
 }

@@ -18,7 +18,7 @@ mod verify;
 
 use std::path::{Path, PathBuf};
 
-pub(crate) use address::{cell_hash, reference_hash, volume_identity};
+pub(crate) use address::{cell_hash, inputs_identity, reference_hash};
 pub(crate) use archive::recorded_but_absent;
 pub(crate) use lock::{
     CellLock, cell_is_locked, lock_folder, lock_reference, lock_tune, try_lock_cell,
