@@ -201,11 +201,106 @@ pub fn write_pfm(path: &Path, width: usize, height: usize, pixels: &[Vec3]) -> R
 /// `(width, height, pixels)`.
 pub fn read_pfm(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let bad = |what: &str| Error::format(path, format!("PFM: {what}"));
-    // Three whitespace-separated header lines: "PF", "W H", scale (negative: little endian).
-    let mut fields = Vec::new();
+    decode_pfm(path, &bytes, PfmChannels::ColourOnly)
+}
+
+/// Which PFM types [`decode_pfm`] accepts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PfmChannels {
+    /// `PF` only (films).
+    ColourOnly,
+    /// `PF`, or `Pf` read as grey RGB (environment maps).
+    ColourOrGrey,
+}
+
+/// Decodes a PFM file's bytes (`path` names it in errors): little-endian if the scale is
+/// negative, values times |scale| (as pbrt-v4 reads them; writers write ±1), rows stored
+/// bottom row first and returned top row first.
+pub fn decode_pfm(
+    path: &Path,
+    bytes: &[u8],
+    accepted: PfmChannels,
+) -> Result<(usize, usize, Vec<Vec3>)> {
+    let bad = |what: String| Error::format(path, format!("PFM: {what}"));
+    let (fields, at) = pfm_header(bytes).ok_or_else(|| {
+        bad("expected the header `PF` or `Pf`, width, height and scale".to_string())
+    })?;
+    let text = |f: &[u8]| String::from_utf8_lossy(f).into_owned();
+    let channels = match (fields[0], accepted) {
+        (b"PF", _) => 3,
+        (b"Pf", PfmChannels::ColourOrGrey) => 1,
+        (b"Pf", PfmChannels::ColourOnly) => {
+            return Err(bad("`Pf` is not a colour PFM (expected `PF`)".to_string()));
+        }
+        (other, _) => {
+            return Err(bad(format!(
+                "type `{}`: expected `PF` (RGB) or `Pf` (grey)",
+                text(other)
+            )));
+        }
+    };
+    let size = |f: &[u8]| text(f).parse::<usize>().ok().filter(|&n| n >= 1);
+    let (Some(width), Some(height)) = (size(fields[1]), size(fields[2])) else {
+        return Err(bad(format!(
+            "size `{} {}`: expected two whole numbers ≥ 1",
+            text(fields[1]),
+            text(fields[2])
+        )));
+    };
+    let scale = text(fields[3])
+        .parse::<f32>()
+        .ok()
+        .filter(|s| s.is_finite() && *s != 0.0)
+        .ok_or_else(|| {
+            bad(format!(
+                "scale `{}`: expected a non-zero number (negative: little-endian)",
+                text(fields[3])
+            ))
+        })?;
+    let row_bytes = width * channels * 4;
+    let data = bytes.get(at..).unwrap_or_default();
+    if row_bytes.checked_mul(height) != Some(data.len()) {
+        return Err(bad(format!(
+            "{} bytes of pixels, expected {} for {width}×{height} {}",
+            data.len(),
+            (row_bytes as u128) * (height as u128),
+            if channels == 3 { "RGB" } else { "grey" }
+        )));
+    }
+    let value = |b: &[u8]| {
+        let b: [u8; 4] = b.try_into().expect("chunks of 4 bytes");
+        scale.abs()
+            * if scale < 0.0 {
+                f32::from_le_bytes(b)
+            } else {
+                f32::from_be_bytes(b)
+            }
+    };
+    let mut texels = vec![Vec3::ZERO; width * height];
+    for (stored, line) in data.chunks_exact(row_bytes).enumerate() {
+        let row = height - 1 - stored;
+        for (x, px) in line.chunks_exact(channels * 4).enumerate() {
+            let mut c = [0.0; 3];
+            for (k, b) in px.chunks_exact(4).enumerate() {
+                c[k] = value(b);
+            }
+            texels[row * width + x] = if channels == 3 {
+                Vec3::from(c)
+            } else {
+                Vec3::splat(c[0])
+            };
+        }
+    }
+    Ok((width, height, texels))
+}
+
+/// Splits a PFM header into its four white-space separated fields ("PF" or "Pf", width,
+/// height, scale) and the offset of the pixel data, after the one white-space byte that
+/// ends the header.
+fn pfm_header(bytes: &[u8]) -> Option<([&[u8]; 4], usize)> {
+    let mut fields = [&bytes[..0]; 4];
     let mut at = 0;
-    while fields.len() < 4 {
+    for field in &mut fields {
         while at < bytes.len() && bytes[at].is_ascii_whitespace() {
             at += 1;
         }
@@ -214,65 +309,11 @@ pub fn read_pfm(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
             at += 1;
         }
         if start == at || at - start > 32 {
-            return Err(bad("expected the header `PF`, width, height and scale"));
+            return None;
         }
-        fields.push(String::from_utf8_lossy(&bytes[start..at]).into_owned());
+        *field = &bytes[start..at];
     }
-    at += 1; // the single whitespace byte that ends the header
-    if fields[0] != "PF" {
-        return Err(bad(&format!(
-            "`{}` is not a colour PFM (expected `PF`)",
-            fields[0]
-        )));
-    }
-    let size = |s: &str| {
-        s.parse::<usize>()
-            .ok()
-            .filter(|&n| (1..=1 << 16).contains(&n))
-    };
-    let (Some(width), Some(height)) = (size(&fields[1]), size(&fields[2])) else {
-        return Err(bad(&format!(
-            "size `{} {}`: expected two numbers in 1..=65536",
-            fields[1], fields[2]
-        )));
-    };
-    let scale: f32 = fields[3]
-        .parse()
-        .ok()
-        .filter(|s: &f32| s.is_finite() && *s != 0.0)
-        .ok_or_else(|| {
-            bad(&format!(
-                "scale `{}`: expected a non-zero number",
-                fields[3]
-            ))
-        })?;
-    let expected = width * height * 12;
-    let data = bytes
-        .get(at..)
-        .filter(|d| d.len() == expected)
-        .ok_or_else(|| {
-            bad(&format!(
-                "{} bytes of pixels, expected {expected} for {width}×{height}",
-                bytes.len().saturating_sub(at)
-            ))
-        })?;
-    let value = |i: usize| {
-        let b: [u8; 4] = data[4 * i..4 * i + 4].try_into().expect("4 bytes");
-        if scale < 0.0 {
-            f32::from_le_bytes(b)
-        } else {
-            f32::from_be_bytes(b)
-        }
-    };
-    let mut pixels = vec![Vec3::ZERO; width * height];
-    for y in 0..height {
-        let row = height - 1 - y;
-        for x in 0..width {
-            let i = 3 * (y * width + x);
-            pixels[row * width + x] = Vec3::new(value(i), value(i + 1), value(i + 2));
-        }
-    }
-    Ok((width, height, pixels))
+    Some((fields, at + 1))
 }
 
 #[cfg(test)]

@@ -23,6 +23,7 @@ use std::path::Path;
 use glam::{DVec3, Vec3};
 
 use crate::error::{Error, Result};
+use crate::film::{PfmChannels, decode_pfm};
 use crate::util::{open_regular, read_bytes_capped};
 
 /// The most texels a map file may hold (2^28: a 16k × 8k map is 2^27). Checked before
@@ -414,101 +415,11 @@ fn read_hdr(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
     Ok((width, height, texels))
 }
 
-/// Splits a PFM header into its four white-space separated fields ("PF" or "Pf", width,
-/// height, scale) and the offset of the pixel data, after the one white-space byte that
-/// ends the header.
-fn pfm_header(bytes: &[u8]) -> Option<([&[u8]; 4], usize)> {
-    let mut fields = [&bytes[..0]; 4];
-    let mut at = 0;
-    for field in &mut fields {
-        while at < bytes.len() && bytes[at].is_ascii_whitespace() {
-            at += 1;
-        }
-        let start = at;
-        while at < bytes.len() && !bytes[at].is_ascii_whitespace() {
-            at += 1;
-        }
-        if start == at || at - start > 32 {
-            return None;
-        }
-        *field = &bytes[start..at];
-    }
-    Some((fields, at + 1))
-}
-
-/// Reads a PFM file: `PF` (RGB) or `Pf` (grey), little-endian if the scale is negative,
-/// rows stored bottom row first (flipped here so row 0 is the top).
+/// Reads a PFM file, `PF` (RGB) or `Pf` (grey), with the project's one PFM decoder.
 fn read_pfm(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
     let bytes = read_bytes_capped(path, PFM_FILE_CAP, "environment map (PFM)")?;
-    let bad = |what: String| Error::format(path, format!("PFM: {what}"));
-    let (fields, at) = pfm_header(&bytes).ok_or_else(|| {
-        bad("expected the header `PF` or `Pf`, width, height and scale".to_string())
-    })?;
-    let text = |f: &[u8]| String::from_utf8_lossy(f).into_owned();
-    let channels = match fields[0] {
-        b"PF" => 3,
-        b"Pf" => 1,
-        other => {
-            return Err(bad(format!(
-                "type `{}`: expected `PF` (RGB) or `Pf` (grey)",
-                text(other)
-            )));
-        }
-    };
-    let size = |f: &[u8]| text(f).parse::<usize>().ok().filter(|&n| n >= 1);
-    let (Some(width), Some(height)) = (size(fields[1]), size(fields[2])) else {
-        return Err(bad(format!(
-            "size `{} {}`: expected two whole numbers ≥ 1",
-            text(fields[1]),
-            text(fields[2])
-        )));
-    };
+    let (width, height, texels) = decode_pfm(path, &bytes, PfmChannels::ColourOrGrey)?;
     check_texel_count(path, width, height)?;
-    let scale = text(fields[3])
-        .parse::<f32>()
-        .ok()
-        .filter(|s| s.is_finite() && *s != 0.0)
-        .ok_or_else(|| {
-            bad(format!(
-                "scale `{}`: expected a non-zero number (negative: little-endian)",
-                text(fields[3])
-            ))
-        })?;
-    let row_bytes = width * channels * 4;
-    let data = bytes.get(at..).unwrap_or_default();
-    if data.len() != row_bytes * height {
-        return Err(bad(format!(
-            "{} bytes of pixels, expected {} for {width}×{height} {}",
-            data.len(),
-            row_bytes * height,
-            if channels == 3 { "RGB" } else { "grey" }
-        )));
-    }
-    let value = |b: &[u8]| {
-        let b: [u8; 4] = b.try_into().expect("chunks of 4 bytes");
-        // pbrt-v4 multiplies by |scale|; every writer in practice writes ±1.
-        scale.abs()
-            * if scale < 0.0 {
-                f32::from_le_bytes(b)
-            } else {
-                f32::from_be_bytes(b)
-            }
-    };
-    let mut texels = vec![Vec3::ZERO; width * height];
-    for (stored, line) in data.chunks_exact(row_bytes).enumerate() {
-        let row = height - 1 - stored;
-        for (x, px) in line.chunks_exact(channels * 4).enumerate() {
-            let mut c = [0.0; 3];
-            for (k, b) in px.chunks_exact(4).enumerate() {
-                c[k] = value(b);
-            }
-            texels[row * width + x] = if channels == 3 {
-                Vec3::from(c)
-            } else {
-                Vec3::splat(c[0])
-            };
-        }
-    }
     Ok((width, height, texels))
 }
 
