@@ -223,13 +223,8 @@ impl Scene {
             style,
             ..tp.clone()
         };
-        let before = three_point(
-            &self.camera,
-            &self.medium.bounds(),
-            self.params.three_point.as_ref().expect("checked"),
-        )
-        .map_err(|e| e.within("three_point"))?
-        .len();
+        // The preset's lights come first, the scene's own `[[lights]]` after them.
+        let before = self.lights.len() - self.params.lights.len();
         let preset = three_point(&self.camera, &self.medium.bounds(), &tp)
             .map_err(|e| e.within("three_point"))?;
         let mut s = self.clone();
