@@ -17,8 +17,9 @@
 //! sample, one footprint, two first free paths from it, two continuations from each
 //! (law of total variance: `paths = E[(X₁ − X₂)²]/2` within a first vertex, `first free
 //! path = E[(X̄a − X̄b)²]/2 − paths/2` between two, the footprint the rest). With exact
-//! single-scattering transmittance the single layer is a function of the first vertex
-//! alone, so these three are all the noise left.
+//! single-scattering transmittance and delta lights the single layer is a function of the
+//! first vertex alone, so these three are all the noise left; a light with extent adds its
+//! sampled directions and the phase strategy's ([`super::mis`]) to `paths`.
 //!
 //! Every variance is the per-sample variance of a pixel's total (single + multiple),
 //! averaged over the pixels (channels averaged), with the per-layer values beside it;
@@ -310,7 +311,6 @@ fn replicates(scene: &Scene, samples: u32, control: &Control<'_>) -> Result<Vec<
     let knobs = LADDER[LADDER.len() - 1].2;
     let pixels = (scene.camera().width() * scene.camera().height()) as usize;
     let seed = scene.integrator().seed;
-    let settings = scene.integrator();
     let splits: Vec<(f64, f64)> = (0..pixels)
         .into_par_iter()
         .map(|pixel| {
@@ -342,33 +342,21 @@ fn replicates(scene: &Scene, samples: u32, control: &Control<'_>) -> Result<Vec<
                     for (c, value) in values.iter_mut().enumerate() {
                         let mut out = first;
                         if let Some(x) = vertex {
-                            // Exact transmittance: the single layer draws nothing.
+                            // Exact transmittance: under delta lights the single layer
+                            // draws nothing.
                             let mut rng = stream(3 + 2 * branch as u64 + c as u64);
-                            if settings.single {
-                                out.single += weighted::single_at(
-                                    scene,
-                                    x,
-                                    ray.direction,
-                                    &mut rng,
-                                    knobs,
-                                    &mut out.work,
-                                );
-                            }
-                            if settings.multiple {
-                                let albedo = scene.medium().albedo_at(x);
-                                weighted::scatter_on(
-                                    scene,
-                                    x,
-                                    ray.direction,
-                                    albedo,
-                                    &mut rng,
-                                    Walk {
-                                        knobs,
-                                        visibility: None,
-                                    },
-                                    &mut out,
-                                );
-                            }
+                            let walk = Walk {
+                                knobs,
+                                visibility: None,
+                            };
+                            weighted::from_first_vertex(
+                                scene,
+                                x,
+                                ray.direction,
+                                &mut rng,
+                                walk,
+                                &mut out,
+                            );
                         }
                         *value = mean3(out.single + out.multiple + out.emission);
                     }

@@ -5,11 +5,13 @@
 //! * [`weighted`] (the default since issue #47): delta tracking to each real collision;
 //!   single scattering from every light with the albedo as a weight; later vertices
 //!   survival-biased (throughput × albedo, Russian roulette only below a threshold) with
-//!   next-event estimation to one light chosen by its unshadowed contribution; and each
+//!   next-event estimation to one light chosen by its unshadowed contribution, weighted
+//!   against the phase function's direction for lights with extent ([`mis`]); and each
 //!   pixel's share of the samples set by a pilot ([`allocation`]);
 //! * [`delta`] (`tracker = "delta"`, every reference before it): Russian roulette with the
 //!   albedo at every collision, next-event estimation to every light, one sample per
-//!   pixel per pass — kept as it was, so its references render again to the bit.
+//!   pixel per pass — kept as it was, so its references render again to the bit (lights
+//!   with extent by next-event estimation alone).
 //!
 //! Layers follow the photon integrator's split: light from a path's first scattering
 //! vertex is `single`, from later vertices `multiple`; emission seen directly (before any
@@ -24,6 +26,7 @@ mod accumulator;
 mod allocation;
 mod budget;
 mod delta;
+mod mis;
 mod routes;
 mod state;
 mod weighted;

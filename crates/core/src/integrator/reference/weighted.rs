@@ -17,6 +17,9 @@
 //!   probability proportional to its unshadowed contribution (intensity × falloff / r² ×
 //!   phase) and divided by that probability: shadow rays are most of a path's cost, and a
 //!   vertex in bone is usually lit by one light at most.
+//! * **Lights with extent** (area lights, environments) are also reached by the walk's
+//!   phase-sampled direction, and both strategies are weighted by the power heuristic
+//!   ([`super::mis`]); delta lights are next-event estimated alone, as before.
 //!
 //! Transmittance to a light is ratio-tracked as in today's tracer: the exact optical
 //! depth has no noise but, walked cell by cell to the light, cost more than the noise it
@@ -25,6 +28,7 @@
 
 use glam::Vec3;
 
+use super::mis;
 use super::routes::LightVisibility;
 use super::{MAX_VERTICES, PathSample};
 use crate::math::{Ray, Rng};
@@ -92,19 +96,36 @@ pub(super) fn trace_path_with(
     let Some(x) = first_vertex(scene, &ray, rng, guides.first_collision, &mut out) else {
         return out;
     };
+    let walk = Walk {
+        knobs,
+        visibility: guides.visibility,
+    };
+    from_first_vertex(scene, x, ray.direction, rng, walk, &mut out);
+    out
+}
+
+/// What a first vertex at `x` (reached along `incoming`) adds: its single scattering,
+/// then the walk of the multiple layer, whose first direction is also the single layer's
+/// phase strategy for lights with extent ([`super::mis`]); without a walk, that direction
+/// is drawn on its own.
+pub(super) fn from_first_vertex(
+    scene: &Scene,
+    x: Vec3,
+    incoming: Vec3,
+    rng: &mut Rng,
+    walk: Walk<'_>,
+    out: &mut PathSample,
+) {
     let settings = scene.integrator();
     let albedo = scene.medium().albedo_at(x);
     if settings.single {
-        out.single += single_at(scene, x, ray.direction, rng, knobs, &mut out.work);
+        out.single += single_at(scene, x, incoming, rng, walk.knobs, &mut out.work);
     }
     if settings.multiple {
-        let walk = Walk {
-            knobs,
-            visibility: guides.visibility,
-        };
-        scatter_on(scene, x, ray.direction, albedo, rng, walk, &mut out);
+        scatter_on(scene, x, incoming, albedo, rng, walk, out);
+    } else if settings.single && mis::has_extended_lights(scene) {
+        out.single += albedo * mis::phase_sampled(scene, x, incoming, rng, &mut out.work);
     }
-    out
 }
 
 /// How a path walks after its first vertex: the budget's knobs and the light choice's
@@ -141,7 +162,7 @@ pub(super) fn first_vertex(
 
 /// The single-scattering layer of a first vertex at `x`: every light, the albedo as a
 /// weight.
-pub(super) fn single_at(
+fn single_at(
     scene: &Scene,
     x: Vec3,
     incoming: Vec3,
@@ -165,7 +186,7 @@ pub(super) fn single_at(
 /// `throughput`): phase-sampled directions, delta-tracked collisions, survival biasing
 /// with roulette below [`ROULETTE_BELOW`], and one light's next event into the multiple
 /// layer at each vertex.
-pub(super) fn scatter_on(
+fn scatter_on(
     scene: &Scene,
     mut x: Vec3,
     mut incoming: Vec3,
@@ -176,13 +197,25 @@ pub(super) fn scatter_on(
 ) {
     let knobs = walk.knobs;
     let medium = scene.medium();
-    for _ in 1..MAX_VERTICES {
+    let extended = mis::has_extended_lights(scene);
+    let single = scene.integrator().single;
+    for vertex in 1..MAX_VERTICES {
         let direction = medium.phase().sample(incoming, rng.uniform2());
         let ray = Ray::new(x, direction);
-        let Some((t0, t1)) = medium.clip(&ray) else {
-            return;
-        };
-        let Some(t) = medium.sample_interaction_delta(&ray, t0, t1, rng) else {
+        let collision = medium
+            .clip(&ray)
+            .and_then(|(t0, t1)| medium.sample_interaction_delta(&ray, t0, t1, rng));
+        if extended {
+            // The phase strategy: what the walk's direction reaches before its next
+            // collision belongs to the layer of the vertex it leaves.
+            let seen = throughput * mis::emitted_before(scene, &ray, incoming, collision);
+            if vertex > 1 {
+                out.multiple += seen;
+            } else if single {
+                out.single += seen;
+            }
+        }
+        let Some(t) = collision else {
             return;
         };
         x = ray.at(t);
@@ -310,7 +343,13 @@ fn unshadowed(
 ) -> Option<(Vec3, Vec3, f32)> {
     let inc = light.sample_incident(x, rng)?;
     let phase = medium.phase().eval(-inc.to_light, -incoming);
-    Some((inc.radiance * phase, inc.to_light, inc.distance))
+    // A light with extent shares its direction with the phase strategy (super::mis).
+    let weight = if inc.pdf.is_finite() {
+        mis::power_heuristic(inc.pdf, phase)
+    } else {
+        1.0
+    };
+    Some((inc.radiance * (phase * weight), inc.to_light, inc.distance))
 }
 
 /// Ratio-tracked transmittance from `x` along `to_light` for `distance` (1 outside the box);
