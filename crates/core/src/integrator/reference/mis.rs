@@ -11,14 +11,15 @@
 //! is chosen for the next event — the weighted tracker chooses one light at later vertices
 //! with a probability that depends on every light's sampled direction, which therefore
 //! does not enter `p_L`. The walk's direction is drawn anyway, so the phase strategy costs
-//! one intersection per light per vertex and no shadow ray (except at a first vertex whose
-//! path does not walk on, [`phase_sampled`]). Delta lights (spots, points) have no area
+//! one intersection per light per vertex and no shadow ray; where no walk leaves a vertex
+//! (single scattering alone) the direction is drawn on its own and the transmittance along
+//! it ratio-tracked. Delta lights (spots, points) have no area
 //! for the phase function to hit: they are next-event estimated alone, as before, and a
 //! scene of delta lights draws exactly the random numbers it drew before.
 
 use glam::Vec3;
 
-use crate::math::{Ray, Rng};
+use crate::math::Ray;
 use crate::scene::Scene;
 
 /// Whether any of `scene`'s lights has extent (the phase strategy has something to hit).
@@ -38,6 +39,26 @@ pub(super) fn power_heuristic(own: f32, other: f32) -> f32 {
     1.0 / (1.0 + ratio * ratio)
 }
 
+/// Each light with extent that a phase-sampled `direction` from `x` (for a path that
+/// arrived along `incoming`) hits, with its radiance times the phase strategy's
+/// power-heuristic weight and its distance (infinite for an environment).
+pub(super) fn reached(
+    scene: &Scene,
+    x: Vec3,
+    incoming: Vec3,
+    direction: Vec3,
+) -> impl Iterator<Item = (Vec3, f32)> + '_ {
+    let pdf_phase = scene.medium().phase().eval(incoming, direction);
+    scene
+        .lights()
+        .iter()
+        .filter(|l| !l.is_delta())
+        .filter_map(move |light| {
+            let (pdf_light, radiance, distance) = light.pdf_and_radiance(x, direction)?;
+            Some((radiance * power_heuristic(pdf_phase, pdf_light), distance))
+        })
+}
+
 /// The radiance the lights with extent send back along `ray` (drawn from the phase
 /// function for a path that arrived along `incoming`), each weighted by the phase
 /// strategy's power heuristic: the lights that `ray` reaches before its next collision
@@ -49,39 +70,10 @@ pub(super) fn emitted_before(
     incoming: Vec3,
     collision: Option<f32>,
 ) -> Vec3 {
-    let pdf_phase = scene.medium().phase().eval(incoming, ray.direction);
-    let mut sum = Vec3::ZERO;
-    for light in scene.lights().iter().filter(|l| !l.is_delta()) {
-        let Some((pdf_light, radiance, distance)) =
-            light.pdf_and_radiance(ray.origin, ray.direction)
-        else {
-            continue;
-        };
-        if collision.is_none_or(|t| distance < t) {
-            sum += radiance * power_heuristic(pdf_phase, pdf_light);
-        }
-    }
-    sum
-}
-
-/// The phase strategy at a first vertex `x` whose path does not walk on (single
-/// scattering only): one phase-sampled direction, delta-tracked to its first collision,
-/// and what reaches `x` along it (before the albedo). `work` counts the ray.
-pub(super) fn phase_sampled(
-    scene: &Scene,
-    x: Vec3,
-    incoming: Vec3,
-    rng: &mut Rng,
-    work: &mut u32,
-) -> Vec3 {
-    let medium = scene.medium();
-    let direction = medium.phase().sample(incoming, rng.uniform2());
-    let ray = Ray::new(x, direction);
-    let collision = medium
-        .clip(&ray)
-        .and_then(|(t0, t1)| medium.sample_interaction_delta(&ray, t0, t1, rng));
-    *work += 1;
-    emitted_before(scene, &ray, incoming, collision)
+    reached(scene, ray.origin, incoming, ray.direction)
+        .filter(|&(_, distance)| collision.is_none_or(|t| distance < t))
+        .map(|(radiance, _)| radiance)
+        .sum()
 }
 
 #[cfg(test)]

@@ -106,8 +106,10 @@ pub(super) fn trace_path_with(
 
 /// What a first vertex at `x` (reached along `incoming`) adds: its single scattering,
 /// then the walk of the multiple layer, whose first direction is also the single layer's
-/// phase strategy for lights with extent ([`super::mis`]); without a walk, that direction
-/// is drawn on its own.
+/// phase strategy for lights with extent ([`super::mis`]). Without a walk (single
+/// scattering alone) that direction is drawn on its own and its transmittance
+/// ratio-tracked, as a shadow ray's is (delta tracking's escape, 0 or 1, raised the single
+/// layer's RMSE on the transparent foot under the sky).
 pub(super) fn from_first_vertex(
     scene: &Scene,
     x: Vec3,
@@ -124,8 +126,23 @@ pub(super) fn from_first_vertex(
     if settings.multiple {
         scatter_on(scene, x, incoming, albedo, rng, walk, out);
     } else if settings.single && mis::has_extended_lights(scene) {
-        out.single += albedo * mis::phase_sampled(scene, x, incoming, rng, &mut out.work);
+        out.single += albedo * phase_sampled(scene, x, incoming, rng, &mut out.work);
     }
+}
+
+/// The phase strategy at a first vertex `x` whose path does not walk on: one
+/// phase-sampled direction and, for each light with extent it reaches, the light's
+/// power-heuristic share times the ratio-tracked transmittance to it (before the albedo).
+/// `work` counts the rays.
+fn phase_sampled(scene: &Scene, x: Vec3, incoming: Vec3, rng: &mut Rng, work: &mut u32) -> Vec3 {
+    let medium = scene.medium();
+    let direction = medium.phase().sample(incoming, rng.uniform2());
+    let mut sum = Vec3::ZERO;
+    for (radiance, distance) in mis::reached(scene, x, incoming, direction) {
+        *work += 1;
+        sum += radiance * transmittance(medium, x, direction, distance, rng, false);
+    }
+    sum
 }
 
 /// How a path walks after its first vertex: the budget's knobs and the light choice's
@@ -171,15 +188,8 @@ fn single_at(
     work: &mut u32,
 ) -> Vec3 {
     let albedo = scene.medium().albedo_at(x);
-    albedo
-        * direct_from_every_light(
-            scene,
-            x,
-            incoming,
-            rng,
-            knobs.exact_single_transmittance,
-            work,
-        )
+    let exact = knobs.exact_single_transmittance;
+    albedo * direct_from_every_light(scene, x, incoming, rng, exact, work)
 }
 
 /// The rest of a path after its first vertex at `x` (reached along `incoming`, carrying
@@ -332,7 +342,8 @@ fn choose(
 /// before shadowing, with the direction and distance to it (`None` outside a spot's cone).
 /// A light with extent is sampled (one direction, radiance over pdf); a delta light draws
 /// nothing, so a choice among candidates weighs each light's sampled estimate and stays
-/// unbiased.
+/// unbiased. A light with extent shares its directions with the phase strategy
+/// ([`super::mis`]) and carries its power-heuristic weight.
 #[inline]
 fn unshadowed(
     medium: &Medium,
@@ -343,7 +354,6 @@ fn unshadowed(
 ) -> Option<(Vec3, Vec3, f32)> {
     let inc = light.sample_incident(x, rng)?;
     let phase = medium.phase().eval(-inc.to_light, -incoming);
-    // A light with extent shares its direction with the phase strategy (super::mis).
     let weight = if inc.pdf.is_finite() {
         mis::power_heuristic(inc.pdf, phase)
     } else {
