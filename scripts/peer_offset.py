@@ -4,11 +4,12 @@
 Mitsuba 3 spawns a ray that crosses a surface about (1 + max|p|)·1e-4 past it (p the hit
 point), so a camera ray entering a medium through a null surface skips that much of it.
 Translating the whole scene by T along (1, 1, 1) changes nothing for volphot but grows the
-skipped layer with T: this renders the exported scene (single scattering, max_depth 2) as
-written and translated by each T, and writes the mean of each with its standard error over
+skipped layer with T: this renders the exported scene (single scattering, `--max-depth 2`,
+or all of it, `-1`) as written and translated by each T, and writes the mean of each with its standard error over
 seeds. A clipped volume's cut face is such a surface (docs/peer.md).
 
     scripts/peer_offset.py EXPORT.xml --translate 0,4,9 --spp 64 --seeds 6 --json OUT.json
+    scripts/peer_offset.py EXPORT.xml --max-depth -1 --translate 0,100 --json OUT.json
 
 Run it with the peer's Python (scripts/peer-mitsuba.sh installs Mitsuba into
 ${XDG_CACHE_HOME:-~/.cache}/volphot/mitsuba-venv); the variant is chosen as the peer's is.
@@ -47,6 +48,7 @@ def main():
     ap.add_argument("--translate", default="0,4,9", help="comma-separated T")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--seeds", type=int, default=6)
+    ap.add_argument("--max-depth", type=int, default=2, help="2: single scattering, -1: all")
     ap.add_argument("--variant", default="auto")
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args()
@@ -63,7 +65,7 @@ def main():
         path = args.scene.replace(".xml", "-moved.xml")
         with open(path, "w") as f:
             f.write(translated(xml, t))
-        scene = mi.load_file(path, max_depth=2)
+        scene = mi.load_file(path, max_depth=args.max_depth)
         means = [float(np.array(mi.render(scene, spp=args.spp, seed=s), dtype=np.float64)
                        .reshape(-1, 3).mean()) for s in range(args.seeds)]
         mean = float(np.mean(means))
@@ -74,7 +76,8 @@ def main():
         os.remove(path)
     if args.json:
         result = {"scene": os.path.basename(args.scene), "spp": args.spp, "seeds": args.seeds,
-                  "variant": variant, "mitsuba": mi.__version__, "part": "single", "rows": rows}
+                  "variant": variant, "mitsuba": mi.__version__,
+                  "part": "single" if args.max_depth == 2 else "all", "rows": rows}
         with open(args.json + ".tmp", "w") as f:
             json.dump(result, f, indent=2)
         os.replace(args.json + ".tmp", args.json)
