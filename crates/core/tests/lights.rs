@@ -95,13 +95,21 @@ fn a_constant_environment_around_a_white_cube_gives_the_uniform_field() {
     }
 }
 
-#[test]
-fn photon_mapping_lit_by_the_environment_approaches_the_uniform_field() {
-    let integrator = "volume_photons = 100000\nnused = 100\nmaxdist = 0.3\nstepsize = 0.01";
+/// The photon integrator's total (single + multiple) over the white cube (σt 1.5) under
+/// the grey sky with `integrator`'s settings, and the uniform field it should approach.
+fn photons_under_grey_sky(integrator: &str) -> (Vec3, Vec3) {
     let scene = cube(1.5, 1.0, 0.0, GREY_SKY, integrator);
     let expected = scattered_in_uniform_field(&scene, 1.5, Vec3::splat(0.7));
     let out = render(&scene, &Control::none()).unwrap();
     let total = mean(&out.film, Layer::Single) + mean(&out.film, Layer::Multiple);
+    (total, expected)
+}
+
+#[test]
+fn photon_mapping_lit_by_the_environment_approaches_the_uniform_field() {
+    let (total, expected) = photons_under_grey_sky(
+        "volume_photons = 100000\nnused = 100\nmaxdist = 0.3\nstepsize = 0.01",
+    );
     // The point estimate's bias near the faces stays within a few per cent here.
     assert!(
         (total.x / expected.x - 1.0).abs() < 0.06,
@@ -139,10 +147,7 @@ fn the_consistent_estimators_light_with_the_environment_too() {
         let integrator = format!(
             "volume_photons = 50000\nnused = 100\nmaxdist = 0.3\nstepsize = 0.01\nestimator = \"{estimator}\"\niterations = 4"
         );
-        let scene = cube(1.5, 1.0, 0.0, GREY_SKY, &integrator);
-        let expected = scattered_in_uniform_field(&scene, 1.5, Vec3::splat(0.7));
-        let out = render(&scene, &Control::none()).unwrap();
-        let total = mean(&out.film, Layer::Single) + mean(&out.film, Layer::Multiple);
+        let (total, expected) = photons_under_grey_sky(&integrator);
         assert!(
             (total.x / expected.x - 1.0).abs() < 0.08,
             "{estimator}: {total} against {expected}"
