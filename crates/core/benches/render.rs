@@ -64,6 +64,7 @@ fn phases(c: &mut Criterion) {
                     scene.lights(),
                     &TraceSettings {
                         photons: 40_000,
+                        stored_target: 0,
                         free_path,
                         stepsize: 0.0005,
                         seed: 1,

@@ -83,7 +83,7 @@ pub use integrator::{
     error_probe_pixels, next_radius, probe_eye_rays, progress_rows, reference_budget, render_march,
     render_march_beams, render_march_planes, render_progressive, render_reference,
 };
-pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, mix64, uniform_sphere};
+pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, Sphere, mix64, uniform_sphere};
 pub use medium::{
     ClipParams, ClipPlaneParams, ClipRegion, ClipSpace, Coefficients, ColourTransfer,
     CropBoxParams, DEFAULT_BRICK_SIZE, FreePath, HalfSpace, MIN_MEAN_FREE_PATH, MajorantGrid,

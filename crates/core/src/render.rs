@@ -120,6 +120,7 @@ pub fn build_photon_map(scene: &Scene, control: &Control<'_>) -> Result<PhotonMa
         scene.lights(),
         &TraceSettings {
             photons: s.volume_photons,
+            stored_target: s.stored_photons,
             free_path: s.free_path,
             stepsize: s.stepsize,
             seed: s.seed,

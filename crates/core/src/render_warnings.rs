@@ -14,11 +14,15 @@ pub enum PhotonKey {
     VolumePhotons,
     /// `photons_per_iteration`: each iteration's map of a progressive, beam or plane render.
     PhotonsPerIteration,
+    /// `stored_photons`: the one map's stored-photon target.
+    StoredPhotons,
 }
 
 impl PhotonKey {
     fn of(integrator: &IntegratorParams) -> Self {
-        if integrator.iterates() && integrator.photons_per_iteration > 0 {
+        if integrator.stored_photons > 0 {
+            PhotonKey::StoredPhotons
+        } else if integrator.iterates() && integrator.photons_per_iteration > 0 {
             PhotonKey::PhotonsPerIteration
         } else {
             PhotonKey::VolumePhotons
@@ -29,6 +33,7 @@ impl PhotonKey {
         match self {
             PhotonKey::VolumePhotons => "volume_photons",
             PhotonKey::PhotonsPerIteration => "photons_per_iteration",
+            PhotonKey::StoredPhotons => "stored_photons",
         }
     }
 }
@@ -66,6 +71,16 @@ pub enum RenderWarning {
         /// The key that sets `emitted`.
         key: PhotonKey,
     },
+    /// A stored-photon target the tracer gave up on: it emitted the most a round may
+    /// ([`crate::photon::MAX_EMITTED`]) and the map still holds fewer.
+    TargetMissed {
+        /// Photons stored in the map.
+        stored: u64,
+        /// `stored_photons`.
+        target: u64,
+        /// Photons emitted in the last round.
+        emitted: u64,
+    },
     /// Photons were stored, yet the multiple-scattering layer is black everywhere: no
     /// sample found a photon within reach (`maxdist` far below the photons' spacing).
     BlackMultiple {
@@ -92,6 +107,7 @@ impl RenderWarning {
     pub fn kind(&self) -> &'static str {
         match self {
             RenderWarning::FewPhotons { .. } => "fewer than 10 × nused photons stored",
+            RenderWarning::TargetMissed { .. } => "a stored-photon target not reached",
             RenderWarning::BlackMultiple { .. } => "a black multiple-scattering layer",
             RenderWarning::Transparent { .. } => "a mean free path longer than the volume",
         }
@@ -107,6 +123,14 @@ impl std::fmt::Display for RenderWarning {
                 emitted,
                 key,
             } => few_photons(f, stored, nused, emitted, key),
+            RenderWarning::TargetMissed {
+                stored,
+                target,
+                emitted,
+            } => write!(
+                f,
+                "stored_photons = {target} not reached: {emitted} photons emitted (the most a round may trace) stored {stored}; the lights barely reach the medium or it scatters almost nothing: raise σt, aim the lights at the volume, or lower stored_photons"
+            ),
             RenderWarning::BlackMultiple { stored, maxdist } => write!(
                 f,
                 "{stored} photons stored, but the multiple-scattering layer is black: no sample found a photon within maxdist = {maxdist:e} (far below the photons' spacing); raise maxdist (the thesis uses 0.1, 10 % of the longest axis)"
@@ -153,32 +177,43 @@ fn few_photons(
     emitted: u64,
     key: PhotonKey,
 ) -> std::fmt::Result {
-    let key = key.name();
+    let name = key.name();
     if stored == 0 {
         return write!(
             f,
-            "none of the {emitted} photons emitted for the map was stored (they missed the volume or crossed it without scattering): the multiple-scattering layer is black; raise {key}, or σt if the medium is nearly clear"
+            "none of the {emitted} photons emitted for the map was stored (they missed the volume or crossed it without scattering): the multiple-scattering layer is black; raise {name}, or σt if the medium is nearly clear"
         );
     }
     write!(
         f,
         "{stored} photons stored for nused {nused}: fewer than {PHOTONS_PER_NUSED} × nused, so each estimate averages a large part of the whole map and the multiple-scattering layer is a smear, not the light's distribution; "
     )?;
+    if key == PhotonKey::StoredPhotons {
+        // The target is a stored count: the advice is the count itself.
+        let needed = PHOTONS_PER_NUSED * nused as u64;
+        return write!(
+            f,
+            "raise stored_photons to {needed} or more, or lower nused"
+        );
+    }
     // Photons stored per photon emitted stay about the same for more photons.
     let needed =
         (emitted as f64 * (PHOTONS_PER_NUSED * nused as u64) as f64 / stored as f64).ceil();
     let lower = stored / PHOTONS_PER_NUSED;
     if needed <= MAX_PHOTONS as f64 {
-        write!(f, "trace more photons ({key} ≥ {needed:.0}) or lower nused")
+        write!(
+            f,
+            "trace more photons ({name} ≥ {needed:.0}) or lower nused"
+        )
     } else if lower >= 2 {
         write!(
             f,
-            "{key} ≥ {needed:.0} would be needed, more than the {MAX_PHOTONS} a map may hold: lower nused to {lower} or less"
+            "{name} ≥ {needed:.0} would be needed, more than the {MAX_PHOTONS} a map may hold: lower nused to {lower} or less"
         )
     } else {
         write!(
             f,
-            "no photon count up to {MAX_PHOTONS} stores enough for any nused: the medium scatters too little of the light; raise σt or {key}"
+            "no photon count up to {MAX_PHOTONS} stores enough for any nused: the medium scatters too little of the light; raise σt or {name}"
         )
     }
 }
@@ -221,6 +256,16 @@ pub fn render_warnings(
             nused: integrator.nused,
             emitted: p.emitted,
             key: PhotonKey::of(integrator),
+        });
+    }
+    if let Some(p) = photons
+        && p.stored_target > 0
+        && p.stored < p.stored_target
+    {
+        warnings.push(RenderWarning::TargetMissed {
+            stored: p.stored,
+            target: p.stored_target,
+            emitted: p.emitted,
         });
     }
     if let Some(p) = photons

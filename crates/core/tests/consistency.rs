@@ -121,6 +121,7 @@ fn plane_estimate_converges_as_the_step_shrinks() {
         base.lights(),
         &volphot::TraceSettings {
             photons: 2_000,
+            stored_target: 0,
             free_path: volphot::FreePath::Delta,
             stepsize: 0.004,
             seed: 3,

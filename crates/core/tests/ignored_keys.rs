@@ -45,6 +45,7 @@ fn other_value(key: &str) -> &'static str {
         "tracker" => "tracker = \"delta\"",
         "reference_spp" => "reference_spp = 7",
         "volume_photons" => "volume_photons = 2500",
+        "stored_photons" => "stored_photons = 3000",
         "nused" => "nused = 30",
         "maxdist" => "maxdist = 0.05",
         "free_path" => "free_path = \"thesis\"",

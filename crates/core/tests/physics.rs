@@ -268,6 +268,7 @@ fn photon_free_path_rules_differ_only_for_thesis_rule() {
             scene.lights(),
             &TraceSettings {
                 photons: 50_000,
+                stored_target: 0,
                 free_path,
                 stepsize: 0.0005,
                 seed: 3,

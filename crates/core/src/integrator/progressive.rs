@@ -386,6 +386,7 @@ fn trace_iteration(
 ) -> Result<Traced> {
     let settings = TraceSettings {
         photons,
+        stored_target: 0,
         free_path: s.free_path,
         stepsize: s.stepsize,
         seed: s.seed ^ ((i as u64) << 40),

@@ -126,9 +126,78 @@ impl Frame {
     }
 }
 
+/// A ball: where the photons of lights with extent are aimed, around what can scatter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sphere {
+    /// The centre.
+    pub centre: Vec3,
+    /// The radius (> 0).
+    pub radius: f32,
+}
+
+impl Sphere {
+    /// The sphere through `bounds`' corners.
+    pub fn around(bounds: &Aabb) -> Self {
+        Sphere {
+            centre: bounds.center(),
+            radius: (bounds.diagonal() * 0.5).max(f32::MIN_POSITIVE),
+        }
+    }
+
+    /// A small sphere holding every point (`None` for none): the centre from Bădoiu and
+    /// Clarkson's iteration — step towards the farthest point by `1/(i + 1)`, within about
+    /// `1/√i` of the smallest sphere's radius after `i` steps — and the radius the largest
+    /// distance from it, so every point lies inside whatever the iteration's accuracy.
+    pub fn enclosing(points: &[Vec3]) -> Option<Self> {
+        let first = *points.first()?;
+        let farthest = |c: Vec3| {
+            points
+                .iter()
+                .copied()
+                .max_by(|a, b| a.distance_squared(c).total_cmp(&b.distance_squared(c)))
+                .unwrap_or(first)
+        };
+        // Start at the centroid (the box's centre for a box's corners) and keep the best
+        // centre the iteration visits.
+        let mut centre = points.iter().copied().sum::<Vec3>() / points.len() as f32;
+        let mut best = (farthest(centre).distance(centre), centre);
+        for i in 1..=1000 {
+            centre += (farthest(centre) - centre) / (i + 1) as f32;
+            let radius = farthest(centre).distance(centre);
+            if radius < best.0 {
+                best = (radius, centre);
+            }
+        }
+        let (radius, centre) = best;
+        Some(Sphere {
+            centre,
+            radius: radius.max(f32::MIN_POSITIVE) * (1.0 + 1e-6),
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_enclosing_sphere_holds_every_point_and_is_nearly_the_smallest() {
+        // A cube's corners: the smallest sphere is the one through them.
+        let corners: Vec<Vec3> = (0..8)
+            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32))
+            .collect();
+        let s = Sphere::enclosing(&corners).unwrap();
+        assert!(corners.iter().all(|p| p.distance(s.centre) <= s.radius));
+        assert!(s.radius < 1.05 * 3f32.sqrt() / 2.0, "{s:?}");
+        // A right triangle: the smallest circle has the hypotenuse as its diameter.
+        let tri = [Vec3::ZERO, Vec3::X * 2.0, Vec3::Y * 2.0];
+        let s = Sphere::enclosing(&tri).unwrap();
+        assert!(tri.iter().all(|p| p.distance(s.centre) <= s.radius));
+        assert!(s.radius < 1.05 * 2f32.sqrt(), "{s:?}");
+        assert!(Sphere::enclosing(&[]).is_none());
+        let one = Sphere::enclosing(&[Vec3::ONE]).unwrap();
+        assert!(one.radius > 0.0 && one.centre == Vec3::ONE);
+    }
 
     #[test]
     fn ray_box_interval() {

@@ -281,6 +281,19 @@ impl ClipRegion {
         faces
     }
 
+    /// The part of the region inside `bounds` (`None` when it keeps nothing there).
+    pub fn within(&self, bounds: Aabb) -> Option<ClipRegion> {
+        let (lo, hi) = (self.crop.min.max(bounds.min), self.crop.max.min(bounds.max));
+        if (0..3).any(|a| lo[a] >= hi[a]) {
+            return None;
+        }
+        let region = ClipRegion {
+            crop: Aabb::new(lo, hi),
+            planes: self.planes.clone(),
+        };
+        (!region.faces().is_empty()).then_some(region)
+    }
+
     /// The same region with its crop box pushed out by `margin` wherever the crop box lies
     /// on `bounds` (beyond which the medium is empty anyway): the boundary a peer renderer
     /// can hold the medium in without its ray-spawn offset eating into the volume's faces.

@@ -84,6 +84,40 @@ impl MajorantGrid {
         self.sigma.iter().filter(|s| **s == 0.0).count() as f64 / self.sigma.len() as f64
     }
 
+    /// The world box of the bricks with σ_maj > 0 (`None` when every brick is empty): no
+    /// point outside it has σt > 0, since a brick's maximum covers every voxel that
+    /// trilinear interpolation inside it reads.
+    pub fn occupied_bounds(&self) -> Option<Aabb> {
+        let mut lo = [usize::MAX; 3];
+        let mut hi = [0usize; 3];
+        for bz in 0..self.res[2] {
+            for by in 0..self.res[1] {
+                for bx in 0..self.res[0] {
+                    if self.is_occupied(bx + self.res[0] * (by + self.res[1] * bz)) {
+                        for (a, b) in [bx, by, bz].into_iter().enumerate() {
+                            lo[a] = lo[a].min(b);
+                            hi[a] = hi[a].max(b + 1);
+                        }
+                    }
+                }
+            }
+        }
+        if lo[0] == usize::MAX {
+            return None;
+        }
+        // Brick `b` spans `[b, b + 1)` in brick coordinates, which run over `bricks` across
+        // the box (a last partial brick ends at the box's face).
+        let extent = self.bounds.extent();
+        let world = |b: usize, a: usize| {
+            let f = (b as f32 / self.bricks[a]).min(1.0);
+            self.bounds.min[a] + f * extent[a]
+        };
+        Some(Aabb::new(
+            Vec3::new(world(lo[0], 0), world(lo[1], 1), world(lo[2], 2)),
+            Vec3::new(world(hi[0], 0), world(hi[1], 1), world(hi[2], 2)),
+        ))
+    }
+
     /// The majorant at world point `p` (0 outside).
     pub fn at(&self, p: Vec3) -> f32 {
         if !self.bounds.contains(p) {

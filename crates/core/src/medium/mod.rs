@@ -40,7 +40,7 @@ pub use sigma::{
 pub use transfer::{Pgm, TransferFunction, TransferKind, TransferParams, parse_pgm, write_pgm};
 
 use crate::error::{Error, Result};
-use crate::math::{Aabb, Ray};
+use crate::math::{Aabb, Ray, Sphere};
 use crate::volume::{
     CellCursor, Grid, NormalizationRecord, Reconstruction, Volume, Voxels, trilinear_corners,
 };
@@ -182,6 +182,9 @@ pub struct Medium {
     majorants: MajorantGrid,
     /// The kept part of the box (`None`: all of it).
     clip_region: Option<ClipRegion>,
+    /// A sphere around everything that can scatter: the occupied majorant bricks inside
+    /// the kept region (`None`: nothing can).
+    scattering_sphere: Option<Sphere>,
     /// Built on first use by the exact optical depth.
     empty_cells: std::sync::OnceLock<empty_cells::EmptyCells>,
     /// Built on first use by the exact optical depth (`None`: too many distinct values).
@@ -227,6 +230,7 @@ impl Medium {
         let report = SigmaReport::new(&coefficients, d_min, d_max, largest_extent);
         let majorants =
             MajorantGrid::build(&density, coefficients.sigma_t_base, settings.brick_size);
+        let scattering_sphere = scattering_sphere(&majorants, clip_region.as_ref());
         let albedo = coefficients.albedo;
         let colour = colour_grids(volume, &settings.transfer);
         if settings.emission_colour && colour.is_none() {
@@ -251,6 +255,7 @@ impl Medium {
             phase: settings.phase,
             majorants,
             clip_region,
+            scattering_sphere,
             empty_cells: std::sync::OnceLock::new(),
             compact_density: std::sync::OnceLock::new(),
             report,
@@ -279,6 +284,14 @@ impl Medium {
             return 0.0;
         }
         self.density.sample(p, self.reconstruction)
+    }
+
+    /// A sphere around everything that can scatter light — the box of the occupied
+    /// majorant bricks, cut by the kept region when the scene clips — or `None` when
+    /// nothing can. Photons from lights with extent aim at it, so a sky's photons do not
+    /// cross empty space around a small or opened volume.
+    pub fn scattering_sphere(&self) -> Option<Sphere> {
+        self.scattering_sphere
     }
 
     /// The kept part of the box when the scene clips the volume (`[clip]`).
@@ -524,6 +537,33 @@ impl Medium {
     pub fn segments(&self, ray: &Ray, t_min: f32, t_max: f32) -> MajorantSegments<'_> {
         self.majorants.segments(ray, t_min, t_max)
     }
+}
+
+/// The sphere around the occupied bricks' box cut by the kept region
+/// ([`Medium::scattering_sphere`]): around the corners of that convex polytope.
+fn scattering_sphere(majorants: &MajorantGrid, clip: Option<&ClipRegion>) -> Option<Sphere> {
+    let occupied = majorants.occupied_bounds()?;
+    let corners: Vec<Vec3> = match clip {
+        None => (0..8)
+            .map(|i| {
+                let pick = |bit: usize, a: usize| {
+                    if i >> bit & 1 == 0 {
+                        occupied.min[a]
+                    } else {
+                        occupied.max[a]
+                    }
+                };
+                Vec3::new(pick(0, 0), pick(1, 1), pick(2, 2))
+            })
+            .collect(),
+        Some(region) => region
+            .within(occupied)?
+            .faces()
+            .into_iter()
+            .flatten()
+            .collect(),
+    };
+    Sphere::enclosing(&corners)
 }
 
 /// Media for unit tests: procedural phantoms with the thesis's σ mapping.

@@ -41,7 +41,9 @@ use rayon::prelude::*;
 
 use super::PhotonStats;
 use super::bvh::{Bounded, Bvh};
-use super::trace::{Flight, PathCounters, PathRecord, TraceSettings, trace_chunks, walk_path};
+use super::trace::{
+    Flight, PathCounters, PathRecord, TraceSettings, emission_target, trace_chunks, walk_path,
+};
 use crate::control::Control;
 use crate::error::Result;
 use crate::math::{Aabb, Domain, Ray, Rng};
@@ -149,6 +151,7 @@ pub fn trace_planes(
     let start = std::time::Instant::now();
     let (chunk, total, per_light) = trace_chunks(
         lights,
+        &emission_target(medium),
         settings,
         control,
         |photon, chunk: &mut PlaneChunk| {
@@ -379,6 +382,7 @@ mod tests {
     fn settings(photons: u64) -> TraceSettings {
         TraceSettings {
             photons,
+            stored_target: 0,
             free_path: FreePath::Delta,
             stepsize: 0.002,
             seed: 9,

@@ -8,7 +8,9 @@
 //!   direction to `x` (area sampling: exact, and cheap enough for lights that subtend a
 //!   modest solid angle, as the study's do);
 //! * photons leave a point uniform on the surface in a cosine-weighted direction, each with
-//!   power `Φ/N`.
+//!   power `Φ/N` — or, when the medium's scattering sphere lies wholly in front of the
+//!   light, in a direction uniform in the cone that sphere subtends, weighted by
+//!   `L·cos θ·A·Ω` (no photon is spent on directions that miss the medium).
 //!
 //! The light is not a surface for the medium: it neither blocks nor reflects light (the
 //! Mitsuba export gives the shape a `null` BSDF so the peer agrees).
@@ -19,7 +21,7 @@ use glam::Vec3;
 
 use super::light::Incident;
 use crate::error::{Error, Result};
-use crate::math::{Frame, Ray, Rng, concentric_disc, cosine_hemisphere};
+use crate::math::{Frame, Ray, Rng, Sphere, concentric_disc, cosine_hemisphere, uniform_cone};
 
 /// The shape of an [`AreaLight`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -216,6 +218,62 @@ impl AreaLight {
             self.frame.to_world(cosine_hemisphere(rng.uniform2())),
         )
     }
+
+    /// Whether photons can be aimed at `target`: the sphere lies wholly on the emitting
+    /// side, so every point of the light sees all of it in front of its surface.
+    fn can_aim_at(&self, target: &Sphere) -> bool {
+        (target.centre - self.centre).dot(self.frame.w) > target.radius
+    }
+
+    /// The power sent towards `target` from the light's centre, as if every point of the
+    /// light saw the sphere as its centre does: `L·A·cos θ_c·Ω_c`. Only a normaliser (the
+    /// photon split over lights and what [`Self::emit_towards`]'s weights are relative
+    /// to): each photon's own weight is exact, so the estimate does not depend on it.
+    /// Without aim, `Φ`.
+    pub fn power_towards(&self, target: &Sphere) -> Vec3 {
+        if !self.can_aim_at(target) {
+            return self.power();
+        }
+        let (axis, cos_max) = cone_towards(self.centre, target);
+        self.radiance * self.area * axis.dot(self.frame.w) * cone_solid_angle(cos_max)
+    }
+
+    /// A photon aimed at `target`: origin uniform on the surface, direction uniform in the
+    /// cone the sphere subtends from it. Its weight relative to
+    /// [`Self::power_towards`] is `L·cos θ·A·Ω(x) / power_towards` — the cosine-weighted
+    /// emission restricted to the directions that can reach the medium, importance-sampled,
+    /// so the power arriving at every point of the sphere is unchanged. Where the sphere
+    /// is not wholly in front of the light, the plain cosine-weighted photon of
+    /// [`Self::emit`] (weight 1).
+    pub fn emit_towards(&self, rng: &mut Rng, target: &Sphere) -> (Ray, f32) {
+        if !self.can_aim_at(target) {
+            return (self.emit(rng), 1.0);
+        }
+        let origin = self.sample_point(rng.uniform2());
+        let (axis, cos_max) = cone_towards(origin, target);
+        let direction = Frame::from_w(axis).to_world(uniform_cone(rng.uniform2(), cos_max));
+        let cos_theta = direction.dot(self.frame.w).max(0.0);
+        let (centre_axis, centre_cos_max) = cone_towards(self.centre, target);
+        let relative = cos_theta * cone_solid_angle(cos_max)
+            / (centre_axis.dot(self.frame.w) * cone_solid_angle(centre_cos_max));
+        (Ray::new(origin, direction), relative)
+    }
+}
+
+/// The unit axis from `from` to `target`'s centre and the cosine of the half-angle of the
+/// cone the sphere subtends (`from` outside the sphere).
+fn cone_towards(from: Vec3, target: &Sphere) -> (Vec3, f32) {
+    let d = target.centre - from;
+    let distance = d.length();
+    let sin2 = (target.radius / distance).powi(2).min(1.0);
+    (d / distance, (1.0 - sin2).sqrt())
+}
+
+/// The solid angle of a cone, `2π(1 − cos α)`, written `2π·sin²α/(1 + cos α)` so a narrow
+/// cone keeps its digits.
+fn cone_solid_angle(cos_max: f32) -> f32 {
+    let sin2 = (1.0 - cos_max * cos_max).max(0.0);
+    2.0 * PI * sin2 / (1.0 + cos_max)
 }
 
 /// A frame around the normal `n` whose `v` axis is `up` projected into the plane.

@@ -9,9 +9,10 @@
 //!   cone, the two chosen in proportion to their power; a sampled direction's pdf is the
 //!   mixture's, so estimates stay unbiased wherever the two overlap.
 //! * Photons (§5.1 generalised to a light at infinity): a direction `ω` from the
-//!   distribution, then an origin uniform on the disc of the bounding sphere's radius `R`
-//!   facing `ω`, outside the sphere; the photon travels along `−ω` with power
-//!   `L(ω)/p(ω)·πR²/N`, whose mean is the power crossing the disc, `Φ = πR²·∫L dω`.
+//!   distribution, then an origin uniform on the disc of radius `R` facing `ω` of the
+//!   sphere around what can scatter (the medium's occupied, kept part), outside the
+//!   sphere; the photon travels along `−ω` with power `L(ω)/p(ω)·πR²/N`, whose mean is the
+//!   power crossing the disc, `Φ = πR²·∫L dω`.
 //! * Camera rays do not see the environment (a black background, as the thesis's images
 //!   and Mitsuba's `hide_emitters`): it lights the volume only.
 
@@ -23,7 +24,7 @@ use glam::Vec3;
 use super::envmap::EnvironmentMap;
 use super::light::{Incident, Intensity, LightKind, LightParams};
 use crate::error::{Error, Result};
-use crate::math::{Aabb, Frame, Ray, Rng, concentric_disc, uniform_cone};
+use crate::math::{Aabb, Frame, Ray, Rng, Sphere, concentric_disc, uniform_cone};
 
 /// The width of the equirectangular map a procedural sky is baked into (height half).
 pub const SKY_MAP_WIDTH: usize = 256;
@@ -321,26 +322,35 @@ impl EnvironmentLight {
         })
     }
 
-    /// Total power entering the bounding sphere: `πR²·∫L dω` (RGB).
+    /// Total power entering the volume's bounding sphere: `πR²·∫L dω` (RGB).
     pub fn power(&self) -> Vec3 {
+        self.power_into(&Sphere {
+            centre: self.centre,
+            radius: self.radius,
+        })
+    }
+
+    /// Total power entering `target`'s sphere: `πR²·∫L dω` (RGB).
+    pub fn power_into(&self, target: &Sphere) -> Vec3 {
         let sun = self
             .sun
             .map_or(Vec3::ZERO, |s| s.radiance * s.solid_angle());
-        (self.map.integral() * self.scale + sun) * (PI * self.radius * self.radius)
+        (self.map.integral() * self.scale + sun) * (PI * target.radius * target.radius)
     }
 
-    /// An emitted photon and its power relative to `Φ/N` (per channel; 0 where Φ is 0).
-    pub fn emit(&self, rng: &mut Rng) -> (Ray, Vec3) {
+    /// A photon entering `target`'s sphere and its power relative to
+    /// [`Self::power_into`]`/N` (per channel; 0 where that power is 0).
+    pub fn emit(&self, rng: &mut Rng, target: &Sphere) -> (Ray, Vec3) {
         let u = rng.uniform2();
         let disc = rng.uniform2();
         let Some((w, pdf, radiance)) = self.sample(u) else {
-            return (Ray::new(self.centre, Vec3::Z), Vec3::ZERO);
+            return (Ray::new(target.centre, Vec3::Z), Vec3::ZERO);
         };
         let frame = Frame::from_w(w);
         let [a, b] = concentric_disc(disc);
-        let origin = self.centre + (w + frame.u * a + frame.v * b) * self.radius * (1.0 + 1e-3);
-        let power = self.power();
-        let carried = radiance / pdf * (PI * self.radius * self.radius);
+        let origin = target.centre + (w + frame.u * a + frame.v * b) * target.radius * (1.0 + 1e-3);
+        let power = self.power_into(target);
+        let carried = radiance / pdf * (PI * target.radius * target.radius);
         let relative = Vec3::from_array(std::array::from_fn(|c| {
             if power[c] > 0.0 {
                 carried[c] / power[c]
@@ -420,7 +430,11 @@ mod tests {
         let n = 100_000;
         let mut mean_relative = Vec3::ZERO;
         for _ in 0..n {
-            let (ray, relative) = env.emit(&mut rng);
+            let target = Sphere {
+                centre: env.centre,
+                radius: env.radius,
+            };
+            let (ray, relative) = env.emit(&mut rng, &target);
             assert!((ray.origin - env.centre).length() >= env.radius);
             assert!(ray.direction.dot(env.centre - ray.origin) > 0.0);
             mean_relative += relative / n as f32;

@@ -24,7 +24,7 @@ use super::camera::Camera;
 use super::environment::{EnvironmentLight, EnvironmentSource, SkyColours, Sun};
 use super::envmap::EnvironmentMap;
 use crate::error::{Error, Result};
-use crate::math::{Aabb, Frame, Ray, Rng, uniform_sphere};
+use crate::math::{Aabb, Frame, Ray, Rng, Sphere, uniform_sphere};
 
 /// One light as written in a scene's `[[lights]]` array. Which keys a light takes depends
 /// on its `type` (a key given to a light that has no use for it is an error naming it).
@@ -440,16 +440,34 @@ impl Light {
         }
     }
 
-    /// An emitted photon's ray and its power relative to `Φ/N` (per channel): equal
-    /// powers for every light but an environment, whose photons carry `L/p` (§7.1.2).
-    pub fn emit(&self, rng: &mut Rng) -> (Ray, Vec3) {
+    /// An emitted photon's ray and its power relative to [`Self::emitted_power`]`/N` (per
+    /// channel): equal powers for delta lights (§7.1.2); an area light's photons aimed at
+    /// `target` carry their `cos θ` and cone, an environment's `L/p`.
+    pub fn emit(&self, rng: &mut Rng, target: &Sphere) -> (Ray, Vec3) {
         match self {
             Light::Spot(_) | Light::Point(_) => (
                 Ray::new(self.position(), self.sample_direction(rng)),
                 Vec3::ONE,
             ),
-            Light::Area(a) => (a.emit(rng), Vec3::ONE),
-            Light::Environment(e) => e.emit(rng),
+            Light::Area(a) => {
+                let (ray, relative) = a.emit_towards(rng, target);
+                (ray, Vec3::splat(relative))
+            }
+            Light::Environment(e) => e.emit(rng, target),
+        }
+    }
+
+    /// The power [`Self::emit`]'s photons carry in all when aimed at `target` (W, RGB):
+    /// a delta light's whole power (its photons are not aimed, so spot-lit maps stay what
+    /// they were); what an area light sends towards the sphere (a normaliser, see
+    /// [`AreaLight::power_towards`]); what an environment sends into it. Photons are split
+    /// over lights in proportion to it, so they carry about equal powers where they can
+    /// reach the medium.
+    pub fn emitted_power(&self, target: &Sphere) -> Vec3 {
+        match self {
+            Light::Point(_) | Light::Spot(_) => self.power(),
+            Light::Area(a) => a.power_towards(target),
+            Light::Environment(e) => e.power_into(target),
         }
     }
 

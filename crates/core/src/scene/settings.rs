@@ -4,7 +4,8 @@
 //!
 //! | key | default | source |
 //! |---|---|---|
-//! | `volume_photons` | 40 000 | §8.1.3 "about 40 000 photons" |
+//! | `volume_photons` | 40 000 | §8.1.3 "about 40 000 photons" (emitted) |
+//! | `stored_photons` | 0 (off) | a stored-photon target (Jensen, pbrt): emit until the map holds this many; `volume_photons` is the first round |
 //! | `nused` | 150 | §8.1.1: no disco-ball artifacts from 150 on |
 //! | `maxdist` | 0.1 | §8.1.3: 10 % of the longest axis |
 //! | `stepsize` | 0.0005 | §8.1.3 |
@@ -234,8 +235,15 @@ pub struct IntegratorParams {
     pub method: Method,
     /// The path tracer's sampling (`method = "reference"` only).
     pub tracker: Tracker,
-    /// Photons emitted in total over all lights.
+    /// Photons emitted in total over all lights (with `stored_photons`: in the first
+    /// round).
     pub volume_photons: u64,
+    /// Photons the map must hold (0: off, `volume_photons` are emitted): the tracer emits
+    /// as many as it takes, each photon's power still divided by its light's emitted count
+    /// (Jensen's photon map, pbrt's). Only the point estimate's one map. Not written when
+    /// 0, so content addresses stay what they were.
+    #[serde(skip_serializing_if = "is_zero_u64")]
+    pub stored_photons: u64,
     /// Photons used per radiance estimate.
     pub nused: u32,
     /// Largest gather radius (world units).
@@ -331,12 +339,17 @@ fn is_zero(x: &f32) -> bool {
     *x == 0.0
 }
 
+fn is_zero_u64(x: &u64) -> bool {
+    *x == 0
+}
+
 impl Default for IntegratorParams {
     fn default() -> Self {
         IntegratorParams {
             method: Method::Photon,
             tracker: Tracker::Weighted,
             volume_photons: 40_000,
+            stored_photons: 0,
             nused: 150,
             maxdist: 0.1,
             stepsize: 0.0005,
@@ -402,6 +415,7 @@ impl IntegratorParams {
         if !self.multiple {
             keys.extend([
                 "volume_photons",
+                "stored_photons",
                 "nused",
                 "maxdist",
                 "free_path",
@@ -450,6 +464,7 @@ impl IntegratorParams {
                 "tracker" => s.tracker = d.tracker,
                 "reference_spp" => s.reference_spp = d.reference_spp,
                 "volume_photons" => s.volume_photons = d.volume_photons,
+                "stored_photons" => s.stored_photons = d.stored_photons,
                 "nused" => s.nused = d.nused,
                 "maxdist" => s.maxdist = d.maxdist,
                 "free_path" => s.free_path = d.free_path,
@@ -512,6 +527,23 @@ impl IntegratorParams {
                 "volume_photons",
                 self.volume_photons,
                 "at most 100 000 000 photons",
+            ));
+        }
+        if self.stored_photons > MAX_PHOTONS {
+            return Err(Error::parameter(
+                "stored_photons",
+                self.stored_photons,
+                "at most 100 000 000 photons (0: off)",
+            ));
+        }
+        if self.stored_photons > 0 && self.estimator != MsEstimator::Points {
+            return Err(Error::parameter(
+                "stored_photons",
+                self.stored_photons,
+                format!(
+                    "0 with estimator = \"{}\" (a stored-photon target fills the point estimate's one map; the iterating estimators set each map by `photons_per_iteration`)",
+                    format!("{:?}", self.estimator).to_lowercase()
+                ),
             ));
         }
         if self.multiple && self.method == Method::Photon && self.volume_photons == 0 {

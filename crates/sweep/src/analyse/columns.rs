@@ -43,6 +43,26 @@ fn extent_pct(r: &CellRecord, d: f64) -> f64 {
     100.0 * d / r.provenance.sigma.largest_extent as f64
 }
 
+/// The column of photons stored from light `index` (from 0).
+const fn stored_by_light(key: &'static str, header: &'static str, index: usize) -> MetricColumn {
+    MetricColumn {
+        key,
+        header,
+        kind: Kind::Measured,
+        value: match index {
+            0 => |r, _| stored_from(r, 0),
+            1 => |r, _| stored_from(r, 1),
+            2 => |r, _| stored_from(r, 2),
+            _ => |r, _| stored_from(r, 3),
+        },
+    }
+}
+
+fn stored_from(r: &CellRecord, index: usize) -> Option<f64> {
+    let photons = r.photons.as_ref()?;
+    photons.stored_per_light.get(index).map(|&n| n as f64)
+}
+
 /// The metric columns, in CSV order.
 pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
     MetricColumn {
@@ -93,7 +113,9 @@ pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
     MetricColumn {
         key: "photons_emitted",
         header: "photons_emitted [count]",
-        kind: Kind::Derived("volume_photons (photons_per_iteration for an iterating render)"),
+        kind: Kind::Derived(
+            "volume_photons (photons_per_iteration for an iterating render; with stored_photons, the count whose map reached it)",
+        ),
         value: |r, _| r.photons.as_ref().map(|p| p.emitted as f64),
     },
     MetricColumn {
@@ -102,6 +124,13 @@ pub(crate) const METRIC_COLUMNS: &[MetricColumn] = &[
         kind: Kind::Measured,
         value: |r, _| r.photons.as_ref().map(|p| p.stored as f64),
     },
+    // Stored photons per light, in the scene's light order (the three-point preset: key,
+    // fill, rim; in the cinematic style: key, sky): whether every light's share of the map
+    // is resolved, not only the sum. Empty for lights the scene does not have.
+    stored_by_light("photons_stored_light1", "photons_stored_light1 [count]", 0),
+    stored_by_light("photons_stored_light2", "photons_stored_light2 [count]", 1),
+    stored_by_light("photons_stored_light3", "photons_stored_light3 [count]", 2),
+    stored_by_light("photons_stored_light4", "photons_stored_light4 [count]", 3),
     MetricColumn {
         key: "empirical_mfp",
         header: "empirical_mfp [% extent]",

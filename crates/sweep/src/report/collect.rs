@@ -114,15 +114,25 @@ fn refresh_image_stats(dir: &Path, record: &mut CellRecord, film: &Film) -> Resu
 /// Whether a cell's axis values match a `where` table (numbers compare by value).
 pub(crate) fn matches(c: &PlannedCell, filter: &toml::Table) -> bool {
     filter.iter().all(|(k, v)| {
-        let want = crate::plan::toml_to_json(v);
-        match (axis_value(c, k), want) {
-            (Some(a), b) if a == b => true,
-            (Some(serde_json::Value::Number(a)), serde_json::Value::Number(b)) => {
-                a.as_f64() == b.as_f64()
+        let Some(have) = axis_value(c, k) else {
+            return false;
+        };
+        match crate::plan::toml_to_json(v) {
+            // A list of values where the axis holds single values: any of them (an axis
+            // whose values are lists, such as a resolution, matches the list itself).
+            serde_json::Value::Array(any) if !have.is_array() => {
+                any.iter().any(|want| same_value(&have, want))
             }
-            _ => false,
+            want => same_value(&have, &want),
         }
     })
+}
+
+fn same_value(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+    match (a, b) {
+        (serde_json::Value::Number(a), serde_json::Value::Number(b)) => a.as_f64() == b.as_f64(),
+        (a, b) => a == b,
+    }
 }
 
 pub(crate) fn axis_value(c: &PlannedCell, key: &str) -> Option<serde_json::Value> {
@@ -157,4 +167,48 @@ pub(crate) fn distinct_values<'a, C: std::borrow::Borrow<Collected> + 'a>(
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cell(axes: &[(&str, serde_json::Value)]) -> PlannedCell {
+        PlannedCell {
+            index: 0,
+            hash: String::new(),
+            label: String::new(),
+            axes: axes
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.clone()))
+                .collect(),
+            reference: None,
+            march_key: String::new(),
+            method: "photon".into(),
+        }
+    }
+
+    #[test]
+    fn a_list_in_where_matches_any_of_its_values_unless_the_axis_holds_lists() {
+        let filter = |text: &str| -> toml::Table { toml::from_str(text).unwrap() };
+        let c = cell(&[
+            ("integrator.stored_photons", serde_json::json!(20000)),
+            ("camera.resolution", serde_json::json!([256, 256])),
+        ]);
+        assert!(matches(
+            &c,
+            &filter("\"integrator.stored_photons\" = [0, 20000]")
+        ));
+        assert!(matches(
+            &c,
+            &filter("\"integrator.stored_photons\" = 20000.0")
+        ));
+        assert!(!matches(
+            &c,
+            &filter("\"integrator.stored_photons\" = [0, 507]")
+        ));
+        assert!(matches(&c, &filter("\"camera.resolution\" = [256, 256]")));
+        assert!(!matches(&c, &filter("\"camera.resolution\" = [256, 512]")));
+        assert!(!matches(&c, &filter("\"integrator.seed\" = [1, 2]")));
+    }
 }
