@@ -10,6 +10,10 @@ For every file bundled with pydicom (pydicom/data/test_files), writes to OUT:
   frames × rows × columns in the file's order: the stored values pydicom decodes, inverted
   for MONOCHROME1, times RescaleSlope plus RescaleIntercept — or, for RT Dose, times
   DoseGridScaling — computed in float64 and rounded once to float32 (what volphot does);
+* placed/N.dcm: a single-frame greyscale image without ImagePositionPatient given one
+  (with ImageOrientationPatient and PixelSpacing if missing), so that its pixel data are
+  decoded too (JPEG extended, deflate, MONOCHROME1 …); pixel bytes and transfer syntax
+  untouched;
 * series/N/s0..s2.dcm: a single-frame image with a position and an orientation copied
   three times by pydicom, 1 mm (or SliceThickness) apart along the slice normal, with a new
   SOPInstanceUID each; the pixel bytes and the transfer syntax are left untouched.
@@ -115,6 +119,27 @@ def write_series(entry, ds, out, index):
         entry["series_error"] = f"{type(e).__name__}: {str(e).splitlines()[0][:120]}"
 
 
+def write_placed(entry, ds, out, index):
+    """A copy of a single-frame greyscale image without a position, placed at the origin."""
+    if entry.get("frames") != 1 or int(ds.get("SamplesPerPixel") or 1) != 1:
+        return
+    if "ImagePositionPatient" in ds:
+        return
+    try:
+        placed = copy.deepcopy(ds)
+        placed.ImagePositionPatient = ["0", "0", "0"]
+        if "ImageOrientationPatient" not in placed:
+            placed.ImageOrientationPatient = ["1", "0", "0", "0", "1", "0"]
+        if "PixelSpacing" not in placed:
+            placed.PixelSpacing = ["1", "1"]
+        (out / "placed").mkdir(exist_ok=True)
+        name = f"placed/{index}.dcm"
+        placed.save_as(out / name, enforce_file_format=False)
+        entry["placed"] = name
+    except Exception as e:  # noqa: BLE001
+        entry["placed_error"] = f"{type(e).__name__}: {str(e).splitlines()[0][:120]}"
+
+
 def main():
     out = Path(sys.argv[1])
     (out / "ref").mkdir(parents=True, exist_ok=True)
@@ -127,6 +152,11 @@ def main():
             ds, stored = decoded
             write_reference(entry, ds, stored, out, index)
             write_series(entry, ds, out, index)
+        elif entry.get("pixels", "").startswith("cannot decode"):
+            ds = pydicom.dcmread(path)
+            entry.setdefault("frames", 1)
+        if entry.get("pixels", "none") != "none" and "frames" in entry:
+            write_placed(entry, ds, out, index)
         entries.append(entry)
     manifest = {"pydicom": pydicom.__version__, "files": entries}
     (out / "manifest.json").write_text(json.dumps(manifest, indent=1))

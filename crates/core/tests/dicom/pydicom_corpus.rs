@@ -131,6 +131,7 @@ const ALLOWED_REFUSALS: &[&str] = &[
     "PixelSpacing: expected present",
     "PALETTE COLOR",
     "BitsAllocated 1 ",
+    "(JPEG extended) with 12-bit samples cannot be decoded here",
 ];
 
 /// Reads `input` and classifies the result against pydicom's `expected` values.
@@ -245,6 +246,24 @@ fn series(
     Some(class)
 }
 
+/// The image given a position by pydicom (pixel bytes untouched): accepted and equal to
+/// pydicom's values, or refused for a reason volphot gives (never a bare codec failure).
+fn placed(out: &Path, entry: &serde_json::Value, failures: &mut Failures) -> Option<Class> {
+    let path = out.join(entry["placed"].as_str()?);
+    let file = format!("{} placed", entry["file"].as_str().unwrap());
+    let expected = reference(out, entry, 1);
+    let class = classify(
+        DicomInput::Files(vec![path]),
+        expected.as_deref(),
+        failures,
+        &file,
+    );
+    if let Class::Refused(reason) = &class {
+        check_reason(entry, expected.is_some(), reason, failures);
+    }
+    Some(class)
+}
+
 /// The file copied into a folder beside three good slices: the volume holds the good
 /// slices and the record names the file (or, for an image of another series, that series
 /// as not used), or the error names the file — never a silent drop.
@@ -326,6 +345,10 @@ fn pydicom_corpus_matches_pydicom_file_by_file() {
                 .join("s0.dcm");
             line += &format!(" | ×3: {}", one_line(&s, &first.display().to_string()));
         }
+        if let Some(p) = placed(out.path(), entry, &mut failures) {
+            let at = out.path().join(entry["placed"].as_str().unwrap());
+            line += &format!(" | placed: {}", one_line(&p, &at.display().to_string()));
+        }
         beside_good_slices(entry, &single, &mut failures);
         table.push(line);
     }
@@ -342,4 +365,270 @@ fn pydicom_corpus_matches_pydicom_file_by_file() {
         failures.join("\n")
     );
     assert!(accepted >= 40, "only {accepted} files accepted");
+}
+
+// --- The rows, one test each, on pydicom's files ---------------------------------
+
+/// pydicom's test file `name` (from its installed package), or `None` (skipped) without it.
+fn pydicom_file(test: &str, name: &str) -> Option<PathBuf> {
+    let python = venv().join("bin/python");
+    let found = std::process::Command::new(&python)
+        .args([
+            "-c",
+            "import pydicom, os; print(os.path.dirname(pydicom.__file__))",
+        ])
+        .output()
+        .ok()
+        .filter(|o| o.status.success());
+    let Some(out) = found else {
+        volphot::test_util::skip(
+            test,
+            &format!(
+                "pydicom is not installed in {} (scripts/pydicom-corpus.sh --install)",
+                venv().display()
+            ),
+        );
+        return None;
+    };
+    let dir = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    Some(Path::new(&dir).join("data/test_files").join(name))
+}
+
+fn read_files(paths: &[PathBuf]) -> volphot::Result<LoadedVoxels> {
+    read_dicom_series(&DicomInput::Files(paths.to_vec()), None, false).map(|(v, _)| v)
+}
+
+/// `bytes` without the first occurrence of `element` (which must be there).
+fn without(bytes: &[u8], element: &[u8]) -> Vec<u8> {
+    let at = bytes
+        .windows(element.len())
+        .position(|w| w == element)
+        .expect("the element is in the file");
+    [&bytes[..at], &bytes[at + element.len()..]].concat()
+}
+
+/// Row 23: a 32-bit big-endian dose (its empty SliceThickness deleted) reads as its
+/// little-endian twin, in pydicom's range (stored 795 000…1 254 000 × DoseGridScaling 1e-6),
+/// not with the 16-bit halves of each value swapped.
+#[test]
+fn big_endian_32_bit_dose_reads_as_its_little_endian_twin() {
+    let test = "big_endian_32_bit_dose_reads_as_its_little_endian_twin";
+    let (Some(be), Some(le)) = (
+        pydicom_file(test, "rtdose_expb_1frame.dcm"),
+        pydicom_file(test, "rtdose_1frame.dcm"),
+    ) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let edited = dir.path().join("expb.dcm");
+    // (0018,0050) DS, length 0, big endian.
+    let empty_thickness = [0x00, 0x18, 0x00, 0x50, b'D', b'S', 0x00, 0x00];
+    std::fs::write(
+        &edited,
+        without(&std::fs::read(&be).unwrap(), &empty_thickness),
+    )
+    .unwrap();
+    let big = read_files(&[edited]).unwrap();
+    let little = read_files(&[le]).unwrap();
+    assert_eq!(big.dims, [10, 10, 1]);
+    assert_eq!(big.values, little.values);
+    let (lo, hi) = big
+        .values
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+    assert!(
+        (0.79..0.80).contains(&lo) && (1.25..1.26).contains(&hi),
+        "{lo} … {hi} Gy"
+    );
+}
+
+/// Peak resident memory of this process, bytes.
+fn peak_resident() -> u64 {
+    // SAFETY: an all-zero rusage is a valid value, and getrusage writes one into it.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) };
+    usage.ru_maxrss as u64 * 1024
+}
+
+/// Reads the file named by `VOLPHOT_READ_ONE` and prints the peak resident memory: run by
+/// [`a_malformed_header_is_refused_cheaply_and_named`] in a process of its own, so other
+/// tests' memory does not count.
+#[test]
+#[ignore = "run by a_malformed_header_is_refused_cheaply_and_named in a child process"]
+fn read_one_file_and_print_peak_memory() {
+    let Ok(file) = std::env::var("VOLPHOT_READ_ONE") else {
+        return;
+    };
+    let result = read_files(&[PathBuf::from(file)]).map(|v| v.dims);
+    println!("peak-resident-bytes={} result={result:?}", peak_resident());
+}
+
+/// The peak resident memory of reading `file` alone, in a child process.
+fn peak_memory_reading(file: &Path) -> u64 {
+    let out = std::process::Command::new(std::env::current_exe().unwrap())
+        .args([
+            "--exact",
+            "pydicom_corpus::read_one_file_and_print_peak_memory",
+        ])
+        .args(["--ignored", "--nocapture", "--test-threads", "1"])
+        .env("VOLPHOT_READ_ONE", file)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let peak = stdout
+        .split("peak-resident-bytes=")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|n| n.parse().ok());
+    peak.unwrap_or_else(|| panic!("the child printed no peak: {stdout}"))
+}
+
+/// Row 24: a 674-byte file whose data set is encoded otherwise than its transfer syntax
+/// says is refused at once (not after gigabytes), and named — alone, and beside good
+/// slices.
+#[test]
+fn a_malformed_header_is_refused_cheaply_and_named() {
+    let test = "a_malformed_header_is_refused_cheaply_and_named";
+    let Some(un) = pydicom_file(test, "UN_sequence.dcm") else {
+        return;
+    };
+    let e = read_files(std::slice::from_ref(&un))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("UN_sequence.dcm") && e.contains("damaged"),
+        "{e}"
+    );
+    let peak = peak_memory_reading(&un);
+    assert!(peak < 256 << 20, "peak resident memory {} MiB", peak >> 20);
+    let dir = tempfile::tempdir().unwrap();
+    for p in 0..3 {
+        let spec = SliceSpec::ct("2.25.4343", &format!("2.25.4343.{p}"), p as f64, [2, 2]);
+        write_slice(&dir.path().join(format!("s{p}")), &spec, &[p as u16; 4]).unwrap();
+    }
+    std::fs::copy(&un, dir.path().join("s9")).unwrap();
+    let e = read_dicom_series(&DicomInput::Folder(dir.path().into()), None, false)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("s9") && e.contains("damaged"), "{e}");
+}
+
+/// Row 24: the end slice of a series with its header cut short.
+#[test]
+fn a_damaged_end_slice_is_an_error_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    for p in 0..4 {
+        let spec = SliceSpec::ct("2.25.4444", &format!("2.25.4444.{p}"), p as f64, [2, 2]);
+        write_slice(&dir.path().join(format!("s{p}")), &spec, &[p as u16; 4]).unwrap();
+    }
+    let last = dir.path().join("s3");
+    let bytes = std::fs::read(&last).unwrap();
+    std::fs::write(&last, &bytes[..bytes.len() / 2]).unwrap();
+    let e = read_dicom_series(&DicomInput::Folder(dir.path().into()), None, false)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_else(|| panic!("the damaged end slice was dropped without a word"));
+    assert!(e.contains("s3") && e.contains("damaged"), "{e}");
+}
+
+/// Row 25: the RT Dose grids: an empty SliceThickness (type 2) is no error, the frames of
+/// a multi-frame grid sit at GridFrameOffsetVector along the normal, DoseGridScaling gives
+/// Gy; without the offsets, the error names the frames.
+#[test]
+fn rt_dose_grids_are_placed_by_their_frame_offsets_and_scaled() {
+    let test = "rt_dose_grids_are_placed_by_their_frame_offsets_and_scaled";
+    let Some(dose) = pydicom_file(test, "rtdose.dcm") else {
+        return;
+    };
+    let v = read_files(std::slice::from_ref(&dose)).unwrap();
+    assert_eq!(v.dims, [10, 10, 15]);
+    assert_eq!(v.spacing, Some([10.0, 10.0, 5.0]));
+    let max = v.values.iter().fold(0.0f32, |a, b| a.max(*b));
+    assert!(max > 0.5 && max < 2.0, "largest dose {max} Gy");
+    // (3004,000C) renamed to an unknown tag: every frame at ImagePositionPatient. The
+    // tag's bytes appear first as the value of FrameIncrementPointer (0028,0009), then as
+    // the element's own tag.
+    let dir = tempfile::tempdir().unwrap();
+    let unplaced = dir.path().join("unplaced.dcm");
+    let mut bytes = std::fs::read(&dose).unwrap();
+    let tag = [0x04, 0x30, 0x0C, 0x00];
+    let at: Vec<usize> = (0..bytes.len() - 4)
+        .filter(|&i| bytes[i..i + 4] == tag)
+        .collect();
+    assert!(at.len() >= 2, "{at:?}");
+    bytes[at[1] + 2] = 0x0B;
+    std::fs::write(&unplaced, bytes).unwrap();
+    let e = read_files(&[unplaced]).err().unwrap().to_string();
+    assert!(
+        e.contains("frame 2 of 15")
+            && e.contains("frame 1 of 15")
+            && e.contains("GridFrameOffsetVector"),
+        "{e}"
+    );
+}
+
+/// Row 26: elements stored with VR UN are read through the dictionary (and the RLE 32-bit
+/// dose decodes).
+#[test]
+fn un_elements_are_read_through_the_dictionary() {
+    let test = "un_elements_are_read_through_the_dictionary";
+    let (Some(rle), Some(plain)) = (
+        pydicom_file(test, "rtdose_rle.dcm"),
+        pydicom_file(test, "rtdose.dcm"),
+    ) else {
+        return;
+    };
+    let a = read_files(&[rle]).unwrap();
+    let b = read_files(&[plain]).unwrap();
+    assert_eq!((a.dims, a.spacing), (b.dims, b.spacing));
+    assert_eq!(a.values, b.values);
+}
+
+/// Row 27: 12-bit JPEG extended, which the pure-Rust codec cannot decode, is refused by
+/// name (the docs no longer promise it), and a codec's failure says why.
+#[test]
+fn undecodable_jpeg_is_refused_with_its_reason() {
+    let test = "undecodable_jpeg_is_refused_with_its_reason";
+    let out = tempfile::tempdir().unwrap();
+    let Some(manifest) = export(test, out.path()) else {
+        return;
+    };
+    for name in ["JPGExtended.dcm", "JPEG-lossy.dcm"] {
+        let entry = manifest["files"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|e| e["file"] == name)
+            .unwrap();
+        let placed = out.path().join(entry["placed"].as_str().unwrap());
+        let e = read_files(&[placed]).err().unwrap().to_string();
+        assert!(
+            e.contains("1.2.840.10008.1.2.4.51") && e.contains("12-bit"),
+            "{e}"
+        );
+    }
+    // A baseline JPEG fragment that is no JPEG: the codec's own words follow.
+    let dir = tempfile::tempdir().unwrap();
+    let mut spec = SliceSpec::ct("2.25.4545", "2.25.4545.0", 0.0, [2, 2]);
+    spec.transfer_syntax = "1.2.840.10008.1.2.4.50".into();
+    spec.signed = false;
+    let file = dir.path().join("broken.dcm");
+    write_slice(&file, &spec, &[0xD8FF, 0xDBFF, 7, 7]).unwrap();
+    let e = read_files(&[file]).err().unwrap().to_string();
+    let (_, cause) = e.split_once("Could not decode pixel data").expect(&e);
+    assert!(cause.trim_start_matches([':', ' ']).len() > 5, "{e}");
+}
+
+/// Row 28: a colour image whose data set is implicit VR under an explicit transfer syntax
+/// is read (as pydicom reads it) and refused as colour.
+#[test]
+fn a_colour_image_in_implicit_vr_is_refused_as_colour() {
+    let test = "a_colour_image_in_implicit_vr_is_refused_as_colour";
+    let Some(rgb) = pydicom_file(test, "SC_rgb_jpeg.dcm") else {
+        return;
+    };
+    let e = read_files(&[rgb]).err().unwrap().to_string();
+    assert!(e.contains("SamplesPerPixel is 3"), "{e}");
 }

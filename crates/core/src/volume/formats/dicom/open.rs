@@ -211,17 +211,22 @@ impl<R: Read + Seek> Walk<'_, R> {
         let vr = h.vr.unwrap_or_else(|| dictionary_vr(h.tag));
         let pixels = h.tag == tags::PIXEL_DATA;
         if h.length == UNDEFINED {
-            // Undefined length: a sequence, encapsulated pixel data, or (UN) a sequence
-            // in implicit VR little endian (PS3.5 §6.2.2).
-            let inner = if vr == VR::UN {
-                Encoding {
-                    explicit: false,
-                    big_endian: false,
-                }
-            } else {
-                e
-            };
-            return self.sequence(inner, None, depth + 1, pixels);
+            // Undefined length: a sequence or encapsulated pixel data. dicom-rs reads a UN
+            // element of undefined length as a sequence in the data set's own encoding,
+            // where PS3.5 §6.2.2 has implicit VR; walked as dicom-rs will parse it, such
+            // a sequence would be read with item tags for lengths (gigabytes).
+            let walked = self.sequence(e, None, depth + 1, pixels);
+            if vr == VR::UN && e.explicit {
+                return walked.map_err(|why| {
+                    format!(
+                        "element {} at byte {} has VR UN and an undefined length: a sequence in implicit VR \
+                         (PS3.5 §6.2.2), which this reader parses as explicit VR and cannot read ({why})",
+                        show(h.tag),
+                        h.at
+                    )
+                });
+            }
+            return walked;
         }
         self.check_fits(h)?;
         if vr == VR::SQ {
