@@ -287,11 +287,12 @@ fn check_in_plane(slices: &[SliceHeader], normal: [f64; 3]) -> Result<()> {
     Ok(())
 }
 
+/// A slice for messages: its file, and its frame when the file holds several.
 fn describe(s: &SliceHeader) -> String {
-    if s.frame == 0 {
+    if s.frames <= 1 {
         s.path.display().to_string()
     } else {
-        format!("{} frame {}", s.path.display(), s.frame + 1)
+        format!("{} frame {} of {}", s.path.display(), s.frame + 1, s.frames)
     }
 }
 
@@ -309,9 +310,11 @@ fn slice_step(slices: &[SliceHeader], normal: [f64; 3]) -> std::result::Result<f
                 error: Error::format(
                     &slices[k + 1].path,
                     format!(
-                        "two slices at the same position {:.4} mm along the normal: this one and {}",
+                        "two slices at the same position {:.4} mm along the normal: {} and {}{}",
                         d[k + 1],
-                        describe(&slices[k])
+                        describe(&slices[k + 1]),
+                        describe(&slices[k]),
+                        same_position_hint(&slices[k])
                     ),
                 ),
             });
@@ -340,6 +343,17 @@ fn slice_step(slices: &[SliceHeader], normal: [f64; 3]) -> std::result::Result<f
         }
     }
     Ok((d[d.len() - 1] - d[0]) / (d.len() - 1) as f64)
+}
+
+/// Why frames of one file may share a position: a multi-frame object that places its
+/// frames neither by functional groups nor by GridFrameOffsetVector.
+fn same_position_hint(s: &SliceHeader) -> &'static str {
+    if s.frames > 1 {
+        " (the file places its frames neither by per-frame functional groups nor by GridFrameOffsetVector, \
+         so every frame is at ImagePositionPatient)"
+    } else {
+        ""
+    }
 }
 
 /// Linear interpolation of `values` (`nz` slices of `plane` voxels at `positions`, sorted)

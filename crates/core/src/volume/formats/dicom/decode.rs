@@ -5,12 +5,12 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use dicom_object::OpenFileOptions;
 use dicom_pixeldata::PixelDecoder;
 use rayon::prelude::*;
 use sha2::{Digest, Sha256};
 
-use super::header::{PixelFormat, SliceHeader};
+use super::header::{PixelFormat, SliceHeader, damaged};
+use super::{native, open};
 use crate::error::{Error, Result};
 
 /// The frames to decode from one file and where each goes.
@@ -41,25 +41,38 @@ fn decode_file(path: &Path, frames: Frames) -> Result<[u8; 32]> {
     let mut bytes = Vec::with_capacity(length as usize);
     std::io::Read::read_to_end(&mut file, &mut bytes).map_err(|e| Error::io(path, e))?;
     let hash: [u8; 32] = Sha256::digest(&bytes).into();
-    let obj = OpenFileOptions::new()
-        .from_reader(&bytes[..])
-        .map_err(|e| {
-            Error::format(
-                path,
-                format!("cannot read the DICOM file (truncated or damaged?): {e}"),
-            )
-        })?;
-    let pixels = obj
-        .decode_pixel_data()
-        .map_err(|e| Error::format(path, format!("cannot decode the pixel data: {e}")))?;
+    let length = bytes.len() as u64;
+    let obj = open::open(
+        std::io::Cursor::new(&bytes[..]),
+        length,
+        open::Extent::Everything,
+    )
+    .map_err(|e| match e {
+        open::Refusal::NotDicom(why) | open::Refusal::Damaged(why) => damaged(path, &why),
+    })?;
+    let Some((first, _)) = frames.first() else {
+        return Ok(hash);
+    };
+    let format = first.format;
+    let syntax = obj.meta().transfer_syntax().to_string();
+    let frame_bytes =
+        first.size[0] as usize * first.size[1] as usize * usize::from(format.bits_allocated / 8);
+    let pixels = match Storage::of(&syntax) {
+        Storage::Native { big_endian } => {
+            native::little_endian_samples(path, &obj, format.bits_allocated, big_endian)?
+        }
+        Storage::Rle => {
+            native::rle_frames(path, &obj, format.bits_allocated, first.frames, frame_bytes)?
+        }
+        Storage::Codec => codec_frames(path, &obj, &syntax)?,
+    };
     for (s, out) in frames {
-        let expected = out.len() * usize::from(s.format.bits_allocated / 8);
-        let data = pixels.frame_data(s.frame).map_err(|_| {
+        let data = pixels.get(s.frame as usize * frame_bytes..(s.frame as usize + 1) * frame_bytes).ok_or_else(|| {
             Error::format(
                 path,
                 format!(
-                    "pixel data holds {} bytes, too few for frame {} of {}×{} pixels at {} bits ({expected} bytes per frame): truncated",
-                    pixels.data().len(),
+                    "pixel data holds {} bytes, too few for frame {} of {}×{} pixels at {} bits ({frame_bytes} bytes per frame): truncated",
+                    pixels.len(),
                     s.frame + 1,
                     s.size[0],
                     s.size[1],
@@ -70,6 +83,71 @@ fn decode_file(path: &Path, frames: Frames) -> Result<[u8; 32]> {
         convert(data, &s.format, s.rescale, out);
     }
     Ok(hash)
+}
+
+/// How a transfer syntax stores the pixel data.
+enum Storage {
+    /// Uncompressed (the data set may be deflated): read here, in the file's byte order.
+    Native { big_endian: bool },
+    /// RLE Lossless (PS3.5 Annex G): decoded here, for 8, 16 and 32 bits.
+    Rle,
+    /// JPEG: dicom-pixeldata's pure-Rust codecs.
+    Codec,
+}
+
+impl Storage {
+    fn of(uid: &str) -> Storage {
+        match uid {
+            "1.2.840.10008.1.2" | "1.2.840.10008.1.2.1" | "1.2.840.10008.1.2.1.99" => {
+                Storage::Native { big_endian: false }
+            }
+            "1.2.840.10008.1.2.2" => Storage::Native { big_endian: true },
+            "1.2.840.10008.1.2.5" => Storage::Rle,
+            _ => Storage::Codec,
+        }
+    }
+}
+
+/// JPEG pixel data decoded by dicom-pixeldata, as little-endian samples; an error gives the
+/// codec's reason (the whole chain of causes), and 12-bit JPEG extended, which the
+/// pure-Rust codecs cannot decode, is refused by name.
+fn codec_frames(
+    path: &Path,
+    obj: &dicom_object::DefaultDicomObject,
+    syntax: &str,
+) -> Result<Vec<u8>> {
+    if let Some(precision) = native::jpeg_precision(obj).filter(|p| *p > 8)
+        && matches!(syntax, "1.2.840.10008.1.2.4.51" | "1.2.840.10008.1.2.4.50")
+    {
+        return Err(Error::format(
+            path,
+            format!(
+                "transfer syntax {syntax} (JPEG extended) with {precision}-bit samples cannot be decoded here \
+                 (the pure-Rust JPEG codec reads 8-bit DCT and lossless JPEG); convert first, e.g. `gdcmconv --raw` or `dcmdjpeg`"
+            ),
+        ));
+    }
+    let pixels = obj.decode_pixel_data().map_err(|e| {
+        Error::format(
+            path,
+            format!("cannot decode the pixel data ({syntax}): {}", causes(&e)),
+        )
+    })?;
+    Ok(pixels.data().to_vec())
+}
+
+/// An error and its causes, joined: "Could not decode pixel data: …: the codec's reason".
+fn causes(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let next = s.to_string();
+        if !text.ends_with(&next) {
+            text += &format!(": {next}");
+        }
+        source = s.source();
+    }
+    open::printable(&text)
 }
 
 /// Stored values (masked to BitsStored, sign-extended when signed, inverted for

@@ -7,6 +7,8 @@
 mod assemble;
 mod decode;
 mod header;
+mod native;
+mod open;
 mod walk;
 
 use std::path::{Path, PathBuf};
@@ -220,46 +222,51 @@ fn unique_files(files: &[PathBuf]) -> Result<(Vec<PathBuf>, Skipped)> {
     Ok((unique, repeated))
 }
 
-/// The slices of every file of `input`, and the entries left out (for the record).
+/// The slices of every file of `input`, and the entries left out (for the record): a
+/// folder's files that are not DICOM or hold no image are named there; a listed file that
+/// is no image, or any DICOM file that cannot be parsed, is an error naming it.
 fn scan_all(input: &DicomInput) -> Result<(Vec<header::SliceHeader>, Skipped)> {
-    let (files, skipped) = input_files(input)?;
-    let folder = matches!(input, DicomInput::Folder(_));
+    let (files, mut skipped) = input_files(input)?;
     let scanned: Vec<(PathBuf, std::result::Result<Vec<header::SliceHeader>, Skip>)> = files
         .par_iter()
         .map(|p| header::scan(p).map(|r| (p.clone(), r)))
         .collect::<Result<_>>()?;
     let mut slices = Vec::new();
-    let (mut not_dicom, mut no_image) = (0usize, 0usize);
     for (path, result) in scanned {
-        match (result, folder) {
-            (Ok(s), _) => slices.extend(s),
-            (Err(Skip::NotDicom(why)), false) => {
+        let reason = match (result, input) {
+            (Ok(s), _) => {
+                slices.extend(s);
+                continue;
+            }
+            (Err(Skip::NotDicom(why)), DicomInput::Files(_)) => {
                 return Err(Error::format(
                     &path,
                     format!("not a readable DICOM file: {why}"),
                 ));
             }
-            (Err(Skip::NoImage), false) => {
+            (Err(Skip::NoImage), DicomInput::Files(_)) => {
                 return Err(Error::format(
                     &path,
                     "a DICOM file without an image (no Rows attribute)",
                 ));
             }
-            (Err(Skip::NotDicom(_)), true) => not_dicom += 1,
-            (Err(Skip::NoImage), true) => no_image += 1,
-        }
-    }
-    if slices.is_empty() {
-        let also = if skipped.is_empty() {
-            String::new()
-        } else {
-            format!(" (also skipped: {})", walk::describe_skipped(&skipped))
+            (Err(Skip::NotDicom(_)), DicomInput::Folder(_)) => Reason::NotDicom,
+            (Err(Skip::NoImage), DicomInput::Folder(_)) => Reason::NoImage,
         };
+        let relative = match input {
+            DicomInput::Folder(dir) => path.strip_prefix(dir).unwrap_or(&path).to_path_buf(),
+            DicomInput::Files(_) => path,
+        };
+        skipped.push((reason, relative));
+    }
+    skipped.sort();
+    if slices.is_empty() {
         return Err(Error::format(
             input.anchor(),
             format!(
-                "no DICOM images: {} files looked at, {not_dicom} not DICOM, {no_image} DICOM without an image{also}; expected a folder of DICOM slices",
-                files.len()
+                "no DICOM images among {} files (skipped: {}); expected a folder of DICOM slices",
+                files.len(),
+                walk::describe_skipped(&skipped)
             ),
         ));
     }

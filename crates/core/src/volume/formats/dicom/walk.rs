@@ -40,6 +40,10 @@ pub enum Reason {
     NotRegular(&'static str),
     /// A folder or file already reached by another path (a link or hard link).
     AlreadyRead,
+    /// A regular file that is not DICOM (no `DICM` magic at byte 128).
+    NotDicom,
+    /// A DICOM file without an image (a DICOMDIR, a report, a plan …).
+    NoImage,
 }
 
 /// What a walk found.
@@ -200,6 +204,10 @@ impl Reason {
             Reason::Dangling => "dangling or looping symbolic link(s)",
             Reason::NotRegular(kind) => kind,
             Reason::AlreadyRead => "entries reaching a folder or file already read, read once",
+            Reason::NotDicom => "file(s) that are not DICOM (no DICM magic at byte 128)",
+            Reason::NoImage => {
+                "DICOM file(s) without an image (no Rows: a DICOMDIR, report, plan …)"
+            }
         }
     }
 }
