@@ -6,6 +6,7 @@ mod agreement;
 mod columns;
 mod disco;
 mod images;
+mod verdict;
 
 use std::time::Instant;
 
@@ -18,6 +19,7 @@ pub(crate) use columns::{METRIC_COLUMNS, MetricColumn, derived_columns, is_metri
 pub(crate) use images::{
     compare, disco, disco_excess, displayed, flip_map, image_stats, luminance,
 };
+pub(crate) use verdict::{MIN_SEEDS, Paired, Verdict};
 
 use crate::store::{
     DiscoScore, ImageStats, OutputDir, read_reference_record, write_reference_metrics,
