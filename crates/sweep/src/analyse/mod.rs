@@ -1,6 +1,7 @@
 //! Films → numbers: what a finished cell's image says (disco-ball score, detail, lit
 //! regions, depth cues), its errors against the reference (RMSE, also with the reference's
-//! noise removed, relMSE, SSIM, FLIP, disco excess), and the metric column schema that turns records into `cells.csv`.
+//! noise removed, relMSE, SSIM, FLIP, disco excess), the metric column schema that turns records into `cells.csv`,
+//! and the one rule for an effect over seeds ([`Verdict`]) that the report and `sweep claims` share.
 
 mod agreement;
 mod columns;
