@@ -116,7 +116,8 @@ fn mean_of(cells: &[HashMap<String, String>], at: &[(&str, &str)], column: &str)
 
 /// The report opens with what each axis changed and by how much: one sentence per main
 /// metric, each context (the other axis's values) apart, repeated seeds by their mean; the
-/// direction and the percentage are those of the cells' own numbers in `cells.csv`.
+/// percentage is that of the cells' own numbers in `cells.csv`. Two seeds are too few for
+/// the effect rule: no change is called an effect, each is unclear.
 #[test]
 fn the_report_says_what_each_axis_changed_and_by_how_much() {
     let dir = tempfile::tempdir().unwrap();
@@ -163,32 +164,27 @@ fn the_report_says_what_each_axis_changed_and_by_how_much() {
         .collect();
     assert!((1..=2).contains(&sentences.len()), "{nused}");
     for sentence in sentences {
-        let (verb, rest) = ["lowers", "raises", "changes", "leaves"]
-            .iter()
-            .find_map(|v| {
-                sentence
-                    .split_once(&format!(" {v} `"))
-                    .map(|(_, r)| (*v, r))
-            })
-            .unwrap_or_else(|| panic!("no verb in `{sentence}`"));
+        let rest = sentence
+            .split_once(" changes `")
+            .unwrap_or_else(|| panic!("not `… changes `metric` by …`: `{sentence}`"))
+            .1;
         let (metric, rest) = rest.split_once('`').unwrap();
         let column = cells[0]
             .keys()
             .find(|k| k.starts_with(&format!("{metric} [")))
             .unwrap_or_else(|| panic!("{metric} is not a column"))
             .clone();
-        let list = rest
-            .split_once(" by ")
-            .or_else(|| rest.split_once(" within "))
-            .unwrap()
-            .1;
+        let list = rest.split_once(" by ").unwrap().1;
         let items: Vec<&str> = list.split(", ").collect();
         assert_eq!(items.len(), 2, "one number per σt: `{sentence}`");
         for item in items {
             let (number_text, context) = item
                 .split_once(" % at σt(d_min) ")
                 .unwrap_or_else(|| panic!("`{item}` of `{sentence}` is not `N % at σt(d_min) V`"));
-            let t = context.trim();
+            let (t, verdict) = context
+                .split_once(" (")
+                .unwrap_or_else(|| panic!("`{item}` of `{sentence}` has no verdict"));
+            assert_eq!(verdict, "unclear: 2 seeds)", "{sentence}");
             let before = mean_of(
                 &cells,
                 &[("sigma.t", t), ("integrator.nused", "10")],
@@ -205,18 +201,7 @@ fn the_report_says_what_each_axis_changed_and_by_how_much() {
                 .trim_start_matches('+')
                 .parse()
                 .unwrap();
-            match verb {
-                "lowers" => assert!(
-                    change < 0.0 && (stated + change).abs() <= 0.6,
-                    "{sentence}: {change}"
-                ),
-                "raises" => assert!(
-                    change > 0.0 && (stated - change).abs() <= 0.6,
-                    "{sentence}: {change}"
-                ),
-                "changes" => assert!((stated - change).abs() <= 0.6, "{sentence}: {change}"),
-                _ => assert!(change.abs() < 0.6, "{sentence}: {change}"),
-            }
+            assert!((stated - change).abs() <= 0.6, "{sentence}: {change}");
         }
     }
     bullet("sigma.t");

@@ -88,7 +88,7 @@ pub(crate) enum Command {
     Status(StatusArgs),
     /// Check every number a document cites from a study against the committed data.
     #[command(
-        after_help = "Examples:\n  sweep claims reports/REPRODUCTION.md README.md\n  sweep claims --uncited reports/REPRODUCTION.md\n\nA cited number carries its query in a comment right after it:\n  0.157<!-- = mean(single_vs_multiple-paper: ms_share where scene=skeleton, sigma.t=6) -->\nand a comparison states what must hold on the data, for instance for every seed:\n  <!-- holds: min_over(seed: mean(s: rmse where nused=25) - mean(s: rmse where nused=150)) > 0 -->\nSources are study folders (their cells.csv), CSV, JSON or TOML files inside the document's\nfolder. Aggregates: value, mean, min, max, sum, count, median, sd, se, spread, and the same\nover groups (min_over(seed: …)); + - * /, abs and parentheses combine them. A number\nprinted with one significant digit must be exact or carry a tolerance (`= … ± 0.5`); a\nnumber that is not data is marked `<!-- given: why -->`."
+        after_help = "Examples:\n  sweep claims reports/REPRODUCTION.md README.md\n  sweep claims --uncited reports/REPRODUCTION.md\n\nA cited number carries its query in a comment right after it:\n  0.157<!-- = mean(single_vs_multiple-paper: ms_share where scene=skeleton, sigma.t=6) -->\nand a comparison states what must hold on the data, for instance for every seed:\n  <!-- holds: min_over(seed: mean(s: rmse where nused=25) - mean(s: rmse where nused=150)) > 0 -->\nA sentence that calls a change an effect (or none) states the verdict of the one rule for\nan effect over seeds, a paired t-test at the 5 % level (docs/experiments.md):\n  <!-- verdict: falls over(integrator.seed: value(s: rmse where nused=150) - value(s: rmse where nused=25)) -->\nThe words are rises, falls (the 95 % interval of the mean difference lies above or below\n0), none within δ (it lies inside ±δ, the smallest effect the sentence cares about) and\nunclear within δ (anything else, always with fewer than 3 seeds); a verdict fails when the\nrule gives another word. ci_low_over, ci_high_over, t_over and n_over give the interval,\nthe t statistic and the number of seeds as numbers.\nSources are study folders (their cells.csv), CSV, JSON or TOML files inside the document's\nfolder. Aggregates: value, mean, min, max, sum, count, median, sd, se, spread, and the same\nover groups (min_over(seed: …)); + - * /, abs and parentheses combine them. Every claim\nreads data, and every value it reduces must be a finite number (a NaN is an error). A\nnumber printed with one significant digit must be exact or carry a tolerance (`= … ±\n0.5`); a number that is not data is marked `<!-- given: why -->`."
     )]
     Claims(ClaimsArgs),
     /// Write DIR/index.html: one card per study folder in DIR, the paper and the benchmarks.
@@ -447,7 +447,8 @@ pub(crate) struct ClaimsArgs {
     #[arg(long)]
     pub(crate) allow_empty: bool,
     /// List the numbers that look measured (a decimal, or a unit such as %, ×, s) and carry
-    /// no claim; fails when there is any.
+    /// no `=` claim, and the comments that hide text from the review (never closed, or not
+    /// rendered as one comment); fails when there is any.
     #[arg(long)]
     pub(crate) uncited: bool,
 }

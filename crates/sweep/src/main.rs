@@ -17,6 +17,7 @@ mod progress;
 mod ranges;
 mod render;
 mod report;
+mod spans;
 mod store;
 mod tune;
 

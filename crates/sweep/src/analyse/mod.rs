@@ -1,11 +1,13 @@
 //! Films → numbers: what a finished cell's image says (disco-ball score, detail, lit
 //! regions, depth cues), its errors against the reference (RMSE, also with the reference's
-//! noise removed, relMSE, SSIM, FLIP, disco excess), and the metric column schema that turns records into `cells.csv`.
+//! noise removed, relMSE, SSIM, FLIP, disco excess), the metric column schema that turns records into `cells.csv`,
+//! and the one rule for an effect over seeds ([`Verdict`]) that the report and `sweep claims` share.
 
 mod agreement;
 mod columns;
 mod disco;
 mod images;
+mod verdict;
 
 use std::time::Instant;
 
@@ -18,6 +20,7 @@ pub(crate) use columns::{METRIC_COLUMNS, MetricColumn, derived_columns, is_metri
 pub(crate) use images::{
     compare, disco, disco_excess, displayed, flip_map, image_stats, luminance,
 };
+pub(crate) use verdict::{MIN_SEEDS, Paired, Verdict};
 
 use crate::store::{
     DiscoScore, ImageStats, OutputDir, read_reference_record, write_reference_metrics,

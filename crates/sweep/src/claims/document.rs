@@ -13,6 +13,7 @@ use std::ops::Range;
 use pulldown_cmark::{Event, Options, Parser, Tag};
 
 use super::cited::{self, Cited};
+use crate::spans::{Lines, Spans, work};
 
 /// A claim comment.
 #[derive(Debug, Clone)]
@@ -45,12 +46,12 @@ pub(crate) fn github_options() -> Options {
 }
 
 /// Where the rendered document holds code (literal text) and raw HTML.
-struct Rendered {
-    code: Vec<Range<usize>>,
-    html: Vec<Range<usize>>,
+pub(crate) struct Rendered {
+    pub(crate) code: Spans,
+    pub(crate) html: Spans,
 }
 
-fn rendered(text: &str) -> Rendered {
+pub(crate) fn rendered(text: &str) -> Rendered {
     let mut code = Vec::new();
     let mut html: Vec<Range<usize>> = Vec::new();
     for (event, range) in Parser::new_ext(text, github_options()).into_offset_iter() {
@@ -63,6 +64,7 @@ fn rendered(text: &str) -> Rendered {
                         if range.start <= last.end
                             || text[last.end..range.start].trim().is_empty() =>
                     {
+                        work::add(range.start.saturating_sub(last.end));
                         last.end = last.end.max(range.end);
                     }
                     _ => html.push(range),
@@ -71,13 +73,20 @@ fn rendered(text: &str) -> Rendered {
             _ => {}
         }
     }
-    Rendered { code, html }
+    Rendered {
+        code: Spans::new(code),
+        html: Spans::new(html),
+    }
 }
+
+/// The kinds of claim comment, by how they start.
+const KINDS: [&str; 3] = ["=", "holds", "verdict"];
 
 /// Whether a comment's text reads like a query (an aggregate call with a source).
 fn looks_like_claim(text: &str) -> bool {
-    const NAMES: [&str; 11] = [
+    const NAMES: [&str; 12] = [
         "value", "mean", "min", "max", "sum", "count", "median", "sd", "se", "spread", "_over",
+        "over",
     ];
     text.contains(':')
         && NAMES.iter().any(|n| {
@@ -88,23 +97,23 @@ fn looks_like_claim(text: &str) -> bool {
         })
 }
 
-/// Every claim (and every broken claim) of a Markdown text, in order.
+/// Every claim (and every broken claim) of a Markdown text, in order. Linear in the text:
+/// each comment is found once, its line and its code or HTML context by binary search, and
+/// its number in the text since the previous claim.
 pub(crate) fn claims_in(text: &str) -> Vec<Found> {
     let rendered = rendered(text);
-    let inside = |ranges: &[Range<usize>], r: Range<usize>| {
-        ranges.iter().any(|c| c.start <= r.start && r.end <= c.end)
-    };
-    let line_of = |at: usize| text[..at].matches('\n').count() + 1;
+    let lines = Lines::new(text);
     let mut found = Vec::new();
     // Where the number of the next claim on the same line may start.
     let mut after_previous = 0;
     let mut from = 0;
     while let Some(open) = text[from..].find("<!--").map(|o| o + from) {
+        work::add(open + 4 - from);
         from = open + 4;
-        if inside(&rendered.code, open..open + 4) {
+        if rendered.code.contains(open) {
             continue;
         }
-        let line = line_of(open);
+        let line = lines.number(open);
         let Some(close) = text[open + 4..].find("-->").map(|c| c + open + 4) else {
             found.push(Found::Malformed {
                 line,
@@ -112,28 +121,29 @@ pub(crate) fn claims_in(text: &str) -> Vec<Found> {
             });
             break;
         };
+        work::add(close + 3 - from);
         let content = text[open + 4..close].trim();
         from = close + 3;
-        let is_claim = content.starts_with('=') || content.starts_with("holds");
-        if !is_claim {
+        if !KINDS.iter().any(|k| content.starts_with(k)) {
             if looks_like_claim(content) {
                 found.push(Found::Malformed {
                     line,
-                    why: "this comment reads like a claim but starts with neither `=` (a cited number) nor `holds:` (a condition)".into(),
+                    why: "this comment reads like a claim but starts with none of `=` (a cited number), `holds:` (a condition) and `verdict:` (an effect over seeds)".into(),
                 });
             }
             continue;
         }
-        if !inside(&rendered.html, open..close + 3) {
+        if !rendered.html.covers(&(open..close + 3)) {
             found.push(Found::Malformed {
                 line,
                 why: "this claim does not render as one hidden comment: a table row is split at every `|` (filters follow `where`), and a comment must not contain `--`".into(),
             });
             continue;
         }
-        let line_start = text[..open].rfind('\n').map_or(0, |p| p + 1);
+        let line_start = lines.start(open);
         let segment_start = line_start.max(after_previous);
         let segment = &text[segment_start..open];
+        work::add(segment.len());
         // In a table, the number is in the comment's own cell.
         let cell_start = segment.rfind('|').map_or(0, |p| p + 1);
         let cited = cited::last_number(&segment[cell_start..]).map(|mut c| {
@@ -218,5 +228,36 @@ mod tests {
             assert!(m.iter().any(|w| w.contains(says)), "{text:?}: {m:?}");
         }
         assert!(malformed("<!-- an ordinary note -->\n").is_empty());
+    }
+
+    /// Case 8 of the fifth reliability round: a document of 111 000 claims timed out: each
+    /// comment searched every code span and HTML block and counted the lines before it.
+    #[test]
+    fn finding_claims_is_linear_in_the_document() {
+        let piece =
+            "a `x` 0.03<!-- = value(s: rmse where nused=25) --> <b>b</b> `<!-- = value(s: y) -->` ";
+        for lines in [true, false] {
+            work::assert_linear("claims_in", 1000, 1.2, |n| {
+                let text = if lines {
+                    format!("{piece}\n").repeat(n)
+                } else {
+                    piece.repeat(n)
+                };
+                let mut found = Vec::new();
+                let steps = work::of(|| found = claims_in(&text));
+                assert_eq!(claims(&text).len(), n);
+                assert_eq!(found.len(), n);
+                steps
+            });
+        }
+    }
+
+    #[test]
+    fn verdicts_are_claims() {
+        let c = claims("It falls.<!-- verdict: falls over(seed: mean(s: x)) -->\n");
+        assert_eq!(c.len(), 1);
+        assert!(c[0].query.starts_with("verdict:"));
+        let m = malformed("<!-- falls over(seed: mean(s: x)) -->\n");
+        assert!(m[0].contains("`verdict:`"), "{m:?}");
     }
 }

@@ -3,6 +3,8 @@
 //! ```text
 //! claim   := '=' expr [tolerance]                       (a cited number)
 //!          | 'holds:' expr cmp expr                      (a condition)
+//!          | 'verdict:' word ['within' δ] 'over' '(' key ':' expr ')'   (an effect)
+//! word    := rises | falls | none | unclear              (δ required for none, unclear)
 //! tolerance := ('±' | '+-') number
 //! cmp     := '<' | '<=' | '>' | '>='
 //! expr    := term (('+' | '-') term)*
@@ -10,7 +12,8 @@
 //! factor  := number | '-' factor | '(' expr ')' | 'abs' '(' expr ')' | call | over
 //! call    := agg '(' source ':' column ['where' filter (',' filter)*] ')'
 //! agg     := value | mean | min | max | sum | count | median | sd | spread
-//! over    := agg '_over' '(' key ':' expr ')'           (agg: min max mean median sd se spread)
+//! over    := agg '_over' '(' key ':' expr ')'           (agg: min max mean median sd se spread
+//!                                                         ci_low ci_high t n)
 //! filter  := key ('=' | '!=') text
 //! ```
 //!
@@ -25,10 +28,23 @@
 //! that A exceeds B for every seed, which is how a comparison states that it is more than
 //! seed noise (`se_over` is the standard error of the mean over seeds).
 //!
+//! `verdict: falls over(seed: A - B)` applies the one rule for an effect
+//! ([`crate::analyse::Verdict`], a paired t-test at the 5 % level) to the differences
+//! `A - B`, one per seed, and fails unless the rule gives the declared word; `none` and
+//! `unclear` name δ, the smallest effect the sentence cares about (`verdict: none within
+//! 0.005 over(seed: A - B)`). The same interval is a number: `ci_low_over(seed: A - B)`,
+//! `ci_high_over`, the t statistic `t_over` and the number of seeds `n_over`.
+//!
+//! Every claim reads data (a condition that compares numbers written in it, `holds: 1 < 2`,
+//! checks nothing), and every value an aggregate reduces is a finite number: a NaN (a CSV
+//! cell `NaN`, a seed's 0/0) is an error, never a value left out.
+//!
 //! The filter list is introduced by `where`, never by `|`: GitHub's renderer splits a table
 //! row at every `|`, also inside an HTML comment, and the claim would show as text.
 
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Context as _, Result, anyhow, bail};
+
+use crate::analyse::{Paired, Verdict};
 
 /// The longest query read: a claim is a sentence's source, not a program. Longer texts
 /// (a 200 000-term sum) are refused before they are parsed.
@@ -54,6 +70,14 @@ pub(crate) enum Aggregate {
     Se,
     /// max − min, at least two rows.
     Spread,
+    /// The low end of the 95 % interval of the mean (the effect rule's), over groups only.
+    CiLow,
+    /// Its high end, over groups only.
+    CiHigh,
+    /// The t statistic of the mean, mean/se, over groups only.
+    T,
+    /// How many groups, over groups only.
+    N,
 }
 
 impl Aggregate {
@@ -73,10 +97,39 @@ impl Aggregate {
         })
     }
 
-    /// Reduces the matched values. Every aggregate, `count` too, needs a matching row.
+    /// The aggregates before `_over`: those of a call that reduce several values, and the
+    /// effect rule's interval, t statistic and count.
+    fn parse_over(name: &str) -> Option<Self> {
+        Some(match name {
+            "ci_low" => Aggregate::CiLow,
+            "ci_high" => Aggregate::CiHigh,
+            "t" => Aggregate::T,
+            "n" => Aggregate::N,
+            _ => match Aggregate::parse(name)? {
+                a @ (Aggregate::Min
+                | Aggregate::Max
+                | Aggregate::Mean
+                | Aggregate::Median
+                | Aggregate::Sd
+                | Aggregate::Se
+                | Aggregate::Spread) => a,
+                _ => return None,
+            },
+        })
+    }
+
+    /// Reduces the matched values. Every aggregate, `count` too, needs a matching row, and
+    /// every value must be a finite number (a NaN is refused, never sorted or skipped).
     pub(crate) fn apply(self, values: &[f64]) -> Result<f64> {
         if values.is_empty() {
             bail!("no row matches (check the filters' values)");
+        }
+        if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
+            bail!(
+                "{}() refuses a value of {bad} among the {} it reduces: every value must be a finite number (an undefined metric is an empty cell)",
+                aggregate_name(self),
+                values.len()
+            );
         }
         let n = values.len() as f64;
         let mean = values.iter().sum::<f64>() / n;
@@ -121,6 +174,24 @@ impl Aggregate {
             Aggregate::Spread => {
                 two("spread")?;
                 Aggregate::Max.apply(values)? - Aggregate::Min.apply(values)?
+            }
+            Aggregate::N => n,
+            Aggregate::CiLow | Aggregate::CiHigh | Aggregate::T => {
+                two(aggregate_name(self))?;
+                let paired = Paired::of(values)?;
+                let (low, high) = paired
+                    .interval
+                    .ok_or_else(|| anyhow!("{} needs at least two values", aggregate_name(self)))?;
+                match self {
+                    Aggregate::CiLow => low,
+                    Aggregate::CiHigh => high,
+                    _ => paired.t().ok_or_else(|| {
+                        anyhow!(
+                            "t: every value is {}, so the t statistic is not defined (no spread)",
+                            paired.mean
+                        )
+                    })?,
+                }
             }
         })
     }
@@ -192,6 +263,21 @@ pub(crate) enum Assertion {
     Equals { expr: Expr, tolerance: Option<f64> },
     /// A comparison that must hold.
     Holds(Expr, Comparison, Expr),
+    /// The effect rule's verdict on the expression's values over the groups of a key.
+    Verdict(VerdictClaim),
+}
+
+/// `verdict: WORD [within δ] over(key: expr)`.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct VerdictClaim {
+    /// The word the sentence uses.
+    pub(crate) declared: Verdict,
+    /// The smallest effect the sentence cares about (for `none` and `unclear`).
+    pub(crate) delta: Option<f64>,
+    /// The key whose values pair the differences (normally `integrator.seed`).
+    pub(crate) key: String,
+    /// The difference, evaluated once per value of `key`.
+    pub(crate) expr: Expr,
 }
 
 /// How the evaluation of an expression asks for data: the values of one call (restricted
@@ -229,22 +315,55 @@ impl Expr {
                 c.aggregate.apply(&values)?
             }
             Expr::Over(aggregate, key, inner) => {
-                let groups = inner.groups(data, extra, key)?;
-                let mut values = Vec::with_capacity(groups.len());
-                for g in &groups {
-                    let mut with = extra.to_vec();
-                    with.push(Filter {
-                        key: key.clone(),
-                        value: g.clone(),
-                        negated: false,
-                    });
-                    values.push(inner.eval_with(data, &with)?);
-                }
-                aggregate
-                    .apply(&values)
-                    .map_err(|e| anyhow!("{}_over({key}: …): {e}", aggregate_name(*aggregate)))?
+                let over = || format!("{}_over({key}: …)", aggregate_name(*aggregate));
+                let values: Vec<f64> = inner
+                    .per_group(data, extra, key)
+                    .with_context(over)?
+                    .into_iter()
+                    .map(|(_, v)| v)
+                    .collect();
+                aggregate.apply(&values).with_context(over)?
             }
         })
+    }
+
+    /// The expression once per value of `key` (every call inside restricted to it), with
+    /// that value. A group whose value is not a finite number (0/0) is an error naming it.
+    pub(crate) fn per_group(
+        &self,
+        data: &mut dyn Data,
+        extra: &[Filter],
+        key: &str,
+    ) -> Result<Vec<(String, f64)>> {
+        let groups = self.groups(data, extra, key)?;
+        let mut values = Vec::with_capacity(groups.len());
+        for g in groups {
+            let mut with = extra.to_vec();
+            with.push(Filter {
+                key: key.to_string(),
+                value: g.clone(),
+                negated: false,
+            });
+            let v = self
+                .eval_with(data, &with)
+                .with_context(|| format!("at {key}={}", super::source::shown_short(&g)))?;
+            if !v.is_finite() {
+                bail!(
+                    "at {key}={} the expression gives {v} (a division by zero?): every group needs a finite value",
+                    super::source::shown_short(&g)
+                );
+            }
+            values.push((g, v));
+        }
+        Ok(values)
+    }
+
+    /// Whether the expression reads any data (else it is arithmetic on numbers written in
+    /// the claim, and checks nothing).
+    pub(crate) fn reads_data(&self) -> bool {
+        let mut calls = Vec::new();
+        self.calls(&mut calls);
+        !calls.is_empty()
     }
 
     /// The distinct values of `key` among the rows every call of the expression matches.
@@ -289,12 +408,32 @@ fn aggregate_name(a: Aggregate) -> &'static str {
         Aggregate::Sd => "sd",
         Aggregate::Se => "se",
         Aggregate::Spread => "spread",
+        Aggregate::CiLow => "ci_low",
+        Aggregate::CiHigh => "ci_high",
+        Aggregate::T => "t",
+        Aggregate::N => "n",
     }
 }
 
-/// Parses what a claim comment says after `<!--` and before `-->`: `= expr [± tol]` or
-/// `holds: expr cmp expr`.
+/// Parses what a claim comment says after `<!--` and before `-->`: `= expr [± tol]`,
+/// `holds: expr cmp expr` or `verdict: word [within δ] over(key: expr)`. A claim that reads
+/// no data is refused: it would check nothing.
 pub(crate) fn parse_assertion(text: &str) -> Result<Assertion> {
+    let assertion = parse_any_assertion(text)?;
+    let reads = match &assertion {
+        Assertion::Equals { expr, .. } => expr.reads_data(),
+        Assertion::Holds(left, _, right) => left.reads_data() || right.reads_data(),
+        Assertion::Verdict(v) => v.expr.reads_data(),
+    };
+    if !reads {
+        bail!(
+            "this claim reads no data (it compares numbers written in it, and would hold whatever the data say): name a source, `mean(study: column where …)`, or mark a number that is not data `<!-- given: why -->`"
+        );
+    }
+    Ok(assertion)
+}
+
+fn parse_any_assertion(text: &str) -> Result<Assertion> {
     let text = text.trim();
     if let Some(rest) = text.strip_prefix('=') {
         let (query, tolerance) = split_tolerance(rest)?;
@@ -311,7 +450,15 @@ pub(crate) fn parse_assertion(text: &str) -> Result<Assertion> {
         p.end()?;
         return Ok(Assertion::Holds(left, comparison, right));
     }
-    bail!("a claim starts with `=` (a cited number) or `holds:` (a condition)")
+    if let Some(rest) = text.strip_prefix("verdict:") {
+        let mut p = Parser::new(rest)?;
+        let v = p.verdict()?;
+        p.end()?;
+        return Ok(Assertion::Verdict(v));
+    }
+    bail!(
+        "a claim starts with `=` (a cited number), `holds:` (a condition) or `verdict:` (an effect over seeds)"
+    )
 }
 
 /// `expr ± 0.5` → (`expr`, 0.5).
@@ -420,6 +567,66 @@ impl Parser {
         Ok(c)
     }
 
+    /// `word [within δ] over(key: expr)`, after `verdict:`.
+    fn verdict(&mut self) -> Result<VerdictClaim> {
+        let word = self.name();
+        let declared = Verdict::from_word(&word).ok_or_else(|| {
+            anyhow!(
+                "`verdict:` is followed by `{}`: expected rises, falls, none or unclear",
+                word.chars().take(12).collect::<String>()
+            )
+        })?;
+        let mut next = self.name();
+        let mut delta = None;
+        if next == "within" {
+            if !self.peek().is_some_and(|c| c.is_ascii_digit() || c == '.') {
+                bail!(
+                    "expected δ, a positive number, after `within` at character {}",
+                    self.at + 1
+                );
+            }
+            let d = self.number_value()?;
+            if d <= 0.0 {
+                bail!("δ after `within` must be a positive number, not {d}");
+            }
+            delta = Some(d);
+            next = self.name();
+        }
+        match (declared, delta) {
+            (Verdict::None | Verdict::Unclear, None) => bail!(
+                "`verdict: {word}` needs `within δ` before `over`: the smallest effect the sentence cares about (no effect is none without saying how small)"
+            ),
+            (Verdict::Rises | Verdict::Falls, Some(_)) => bail!(
+                "`verdict: {word}` takes no `within δ` (an interval above or below 0 rises or falls whatever δ is): drop it"
+            ),
+            _ => {}
+        }
+        if next != "over" {
+            bail!(
+                "expected `over(key: expression)` after `verdict: {word}`{}",
+                if delta.is_some() {
+                    " within δ"
+                } else {
+                    " [within δ]"
+                }
+            );
+        }
+        self.expect('(')?;
+        let key = self.until(&[':', ')'], false);
+        self.expect(':')?;
+        if key.is_empty() {
+            bail!("over(…) needs `key: expression`, the key normally `integrator.seed`");
+        }
+        let expr = self.expr()?;
+        self.expect(')')?;
+        Ok(VerdictClaim {
+            declared,
+            delta,
+            key,
+            expr,
+        })
+    }
+
     fn expr(&mut self) -> Result<Expr> {
         let mut left = self.term()?;
         while let Some(op @ ('+' | '-')) = self.peek() {
@@ -465,6 +672,10 @@ impl Parser {
     }
 
     fn number(&mut self) -> Result<Expr> {
+        self.number_value().map(Expr::Number)
+    }
+
+    fn number_value(&mut self) -> Result<f64> {
         let start = self.at;
         while let Some(&c) = self.chars.get(self.at) {
             let sign_of_exponent =
@@ -476,7 +687,7 @@ impl Parser {
         }
         let text: String = self.chars[start..self.at].iter().collect();
         match text.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(Expr::Number(v)),
+            Ok(v) if v.is_finite() => Ok(v),
             _ => Err(anyhow!("`{text}` is not a finite number")),
         }
     }
@@ -576,19 +787,10 @@ impl Parser {
 
     /// `agg_over(key: expr)`.
     fn over(&mut self, base: &str) -> Result<Expr> {
-        let aggregate = match Aggregate::parse(base) {
-            Some(
-                a @ (Aggregate::Min
-                | Aggregate::Max
-                | Aggregate::Mean
-                | Aggregate::Median
-                | Aggregate::Sd
-                | Aggregate::Se
-                | Aggregate::Spread),
-            ) => a,
-            _ => bail!(
-                "`{base}_over` is not an aggregate over groups: expected min, max, mean, median, sd, se or spread before `_over`"
-            ),
+        let Some(aggregate) = Aggregate::parse_over(base) else {
+            bail!(
+                "`{base}_over` is not an aggregate over groups: expected min, max, mean, median, sd, se, spread, ci_low, ci_high, t or n before `_over`"
+            )
         };
         self.deeper()?;
         self.expect('(')?;

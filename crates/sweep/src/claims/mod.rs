@@ -13,7 +13,9 @@
 //! cell); it must equal the query's value to its printed precision (half a unit in its last
 //! digit), or within an explicit `± tolerance` after the query. A number printed with fewer
 //! than two significant digits must be exact or carry a tolerance (`1×` does not pass for
-//! 1.24). A condition, `<!-- holds: min_over(seed: A - B) > 0 -->`, must hold on the data.
+//! 1.24). A condition, `<!-- holds: min_over(seed: A - B) > 0 -->`, must hold on the data,
+//! and a verdict, `<!-- verdict: falls over(integrator.seed: A - B) -->`, must be the word
+//! the one rule for an effect over seeds gives ([`crate::analyse::Verdict`]).
 //! The query language is in [`expr`]; its sources are read by [`source`], confined to the
 //! document's folder. With `--update`, numbers that differ are rewritten from the data in
 //! the same form ([`update`]).
@@ -31,9 +33,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
+use crate::analyse::{Paired, Verdict};
 pub(crate) use cited::Cited;
 pub(crate) use document::{Claim, Found};
-use expr::Assertion;
+use expr::{Assertion, VerdictClaim};
 use source::{DocumentData, Sources};
 pub(crate) use uncited::uncited_numbers;
 
@@ -51,9 +54,80 @@ pub(crate) enum Outcome {
     Holds(f64, f64),
     /// A condition fails on the data: its two sides' values.
     Fails(f64, f64),
+    /// A verdict's word against the rule's (they agree or not).
+    Judged(Judgement),
     /// The claim cannot be checked: no number before it, a bad query, missing data, a
     /// malformed comment.
     Broken(String),
+}
+
+impl Outcome {
+    /// Whether the claim is right as written: the number agrees, the condition holds, the
+    /// verdict is the rule's.
+    pub(crate) fn is_right(&self) -> bool {
+        match self {
+            Outcome::Agrees(_) | Outcome::Holds(..) => true,
+            Outcome::Judged(j) => j.agrees(),
+            _ => false,
+        }
+    }
+}
+
+/// What the effect rule made of a verdict's differences.
+#[derive(Debug, Clone)]
+pub(crate) struct Judgement {
+    /// The word the document writes.
+    pub(crate) declared: Verdict,
+    /// The word the rule gives.
+    pub(crate) computed: Verdict,
+    /// The key the differences are paired over.
+    pub(crate) key: String,
+    pub(crate) paired: Paired,
+    pub(crate) delta: Option<f64>,
+}
+
+impl Judgement {
+    pub(crate) fn agrees(&self) -> bool {
+        self.declared == self.computed
+    }
+
+    /// `n 8 seeds, mean −0.0123, 95 % interval −0.0151 to −0.0095, δ 0.005`.
+    pub(crate) fn numbers(&self) -> String {
+        let p = &self.paired;
+        let interval = match p.interval {
+            Some((low, high)) => format!("95 % interval {} to {}", sig(low), sig(high)),
+            None => "no interval (one value)".to_string(),
+        };
+        let few = if p.n < crate::analyse::MIN_SEEDS {
+            format!(
+                " (fewer than {} values: too few to tell)",
+                crate::analyse::MIN_SEEDS
+            )
+        } else {
+            String::new()
+        };
+        let delta = self
+            .delta
+            .map_or("no δ".to_string(), |d| format!("δ {}", sig(d)));
+        format!(
+            "n {} values of {}{few}, mean {}, {interval}, {delta}",
+            p.n,
+            self.key,
+            sig(p.mean)
+        )
+    }
+}
+
+/// A number with four significant digits, in scientific form when very large or small.
+fn sig(v: f64) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    let magnitude = v.abs().log10().floor() as i32;
+    if !(-4..6).contains(&magnitude) {
+        return format!("{v:.3e}");
+    }
+    format!("{v:.*}", (3 - magnitude).max(0) as usize)
 }
 
 /// A claim and its outcome.
@@ -136,14 +210,37 @@ fn evaluate(claim: &Claim, sources: &mut Sources) -> Outcome {
             (Ok(a), Ok(b)) => Outcome::Fails(a, b),
             (Err(e), _) | (_, Err(e)) => Outcome::Broken(format!("{e:#}")),
         },
+        Assertion::Verdict(v) => match judge(v, &mut data) {
+            Ok(j) => Outcome::Judged(j),
+            Err(e) => Outcome::Broken(format!("{e:#}")),
+        },
     }
+}
+
+/// The rule's verdict on a verdict claim's differences, one per value of its key.
+fn judge(v: VerdictClaim, data: &mut DocumentData) -> Result<Judgement> {
+    let differences: Vec<f64> = v
+        .expr
+        .per_group(data, &[], &v.key)
+        .with_context(|| format!("verdict over({}: …)", v.key))?
+        .into_iter()
+        .map(|(_, d)| d)
+        .collect();
+    let paired = Paired::of(&differences).with_context(|| format!("verdict over({}: …)", v.key))?;
+    Ok(Judgement {
+        declared: v.declared,
+        computed: paired.verdict(v.delta),
+        key: v.key,
+        paired,
+        delta: v.delta,
+    })
 }
 
 /// The comparison a condition's query makes (`>` for `holds: a > b`), if it parses.
 pub(crate) fn comparison_of(query: &str) -> Option<&'static str> {
     match expr::parse_assertion(query).ok()? {
         Assertion::Holds(_, c, _) => Some(c.symbol()),
-        Assertion::Equals { .. } => None,
+        Assertion::Equals { .. } | Assertion::Verdict(_) => None,
     }
 }
 
@@ -185,12 +282,21 @@ pub(crate) fn updated(text: &str, checked: &[Checked]) -> String {
             _ => None,
         })
         .collect();
-    // Right to left, so earlier offsets stay valid.
-    edits.sort_by_key(|e| std::cmp::Reverse(e.0));
-    let mut out = text.to_string();
+    // Left to right in one pass: the text between edits is copied once (a rewrite in
+    // place moved the rest of the document for every edit).
+    edits.sort_by_key(|e| e.0);
+    let mut out = String::with_capacity(text.len());
+    let mut copied = 0;
     for (start, end, new) in edits {
-        out.replace_range(start..end, &new);
+        if start < copied {
+            continue;
+        }
+        out.push_str(&text[copied..start]);
+        out.push_str(&new);
+        copied = end;
     }
+    out.push_str(&text[copied..]);
+    crate::spans::work::add(text.len() + out.len());
     out
 }
 
@@ -242,6 +348,7 @@ pub(crate) fn check_document(path: &Path, options: &ClaimOptions) -> Result<Vec<
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::spans::work;
 
     fn study(dir: &Path) {
         let s = dir.join("s");
@@ -369,5 +476,249 @@ mod tests {
             ..ClaimOptions::default()
         };
         assert!(check_document(&doc, &allowed).unwrap().is_empty());
+    }
+
+    /// A study `v` whose cells are (seed, side, x): the verdict tests' data.
+    fn paired_study(dir: &Path, a: &[f64], b: &[f64]) {
+        let s = dir.join("v");
+        std::fs::create_dir_all(&s).unwrap();
+        let mut csv = String::from("cell,integrator.seed,side,x [1]\n");
+        for (side, values) in [("a", a), ("b", b)] {
+            for (i, v) in values.iter().enumerate() {
+                csv += &format!("{},{},{side},{v}\n", csv.lines().count() - 1, i + 1);
+            }
+        }
+        std::fs::write(s.join("cells.csv"), csv).unwrap();
+    }
+
+    const DIFFERENCE: &str = "value(v: x where side=a) - value(v: x where side=b)";
+
+    /// The outcome of `comment` (one claim) over a paired study of sides `a` and `b`.
+    fn verdict_of(a: &[f64], b: &[f64], comment: &str) -> Outcome {
+        let dir = tempfile::tempdir().unwrap();
+        paired_study(dir.path(), a, b);
+        let doc = dir.path().join("paper.md");
+        std::fs::write(&doc, format!("It falls.<!-- {comment} -->\n")).unwrap();
+        let mut o = outcomes(&doc, &ClaimOptions::default());
+        assert_eq!(o.len(), 1, "{o:?}");
+        o.remove(0)
+    }
+
+    /// Whether the one verdict claim agrees (panics when it cannot be checked).
+    fn agrees(a: &[f64], b: &[f64], comment: &str) -> bool {
+        match verdict_of(a, b, comment) {
+            Outcome::Judged(j) => j.agrees(),
+            other => panic!("{comment}: {other:?}"),
+        }
+    }
+
+    /// The principal issue's noise rule: each word agrees where the rule gives it and fails
+    /// where it does not.
+    #[test]
+    fn each_verdict_word_agrees_or_fails_by_the_rule() {
+        let base = [1.0, 1.0, 1.0, 1.0];
+        let over = format!("over(integrator.seed: {DIFFERENCE})");
+        // a − b per seed: clearly up, clearly down, near 0, and wide.
+        let up = [1.9, 2.1, 2.0, 2.05];
+        let down = [0.1, -0.1, 0.0, 0.05];
+        let flat = [1.001, 0.999, 1.0005, 0.9995];
+        let wide = [1.5, 0.4, 1.9, 0.6];
+        for (a, word, agrees_with) in [
+            (&up, "rises", true),
+            (&up, "falls", false),
+            (&down, "falls", true),
+            (&down, "rises", false),
+            (&flat, "none within 0.01", true),
+            (&flat, "none within 0.0001", false),
+            (&wide, "unclear within 0.01", true),
+            (&wide, "rises", false),
+            (&flat, "unclear within 0.01", false),
+            (&up, "unclear within 0.01", false),
+        ] {
+            let comment = format!("verdict: {word} {over}");
+            assert_eq!(agrees(a, &base, &comment), agrees_with, "{a:?}: {comment}");
+        }
+        // The failure names both words and the numbers behind them.
+        let Outcome::Judged(j) = verdict_of(&wide, &base, &format!("verdict: rises {over}")) else {
+            panic!("not judged")
+        };
+        assert_eq!((j.declared, j.computed), (Verdict::Rises, Verdict::Unclear));
+        let numbers = j.numbers();
+        for part in [
+            "n 4 values of integrator.seed",
+            "mean 0.1000",
+            "95 % interval",
+            "no δ",
+        ] {
+            assert!(numbers.contains(part), "{part} not in {numbers}");
+        }
+    }
+
+    #[test]
+    fn two_seeds_are_unclear_and_no_spread_is_a_point() {
+        let over = format!("over(integrator.seed: {DIFFERENCE})");
+        // Two seeds that both rise a lot: too few to tell.
+        let two = ([3.0, 3.1], [1.0, 1.0]);
+        assert!(!agrees(&two.0, &two.1, &format!("verdict: rises {over}")));
+        assert!(agrees(
+            &two.0,
+            &two.1,
+            &format!("verdict: unclear within 0.1 {over}")
+        ));
+        // Every seed changes by exactly the same: s = 0.
+        let (same_a, same_b) = ([2.0, 3.0, 4.0], [1.0, 2.0, 3.0]);
+        assert!(agrees(&same_a, &same_b, &format!("verdict: rises {over}")));
+        assert!(agrees(&same_b, &same_a, &format!("verdict: falls {over}")));
+        assert!(agrees(
+            &same_a,
+            &same_a,
+            &format!("verdict: none within 0.001 {over}")
+        ));
+        assert!(!agrees(
+            &same_a,
+            &same_a,
+            &format!("verdict: unclear within 0.001 {over}")
+        ));
+    }
+
+    #[test]
+    fn verdict_syntax_mistakes_and_a_nan_seed_are_errors() {
+        let over = format!("over(integrator.seed: {DIFFERENCE})");
+        let (a, b) = ([2.0, 2.1, 2.2], [1.0, 1.0, 1.0]);
+        for (comment, says) in [
+            (format!("verdict: none {over}"), "needs `within δ`"),
+            (format!("verdict: unclear {over}"), "needs `within δ`"),
+            (
+                format!("verdict: rises within 0.1 {over}"),
+                "takes no `within δ`",
+            ),
+            (
+                format!("verdict: up {over}"),
+                "expected rises, falls, none or unclear",
+            ),
+            (format!("verdict: none within 0 {over}"), "positive"),
+            (
+                format!("verdict: rises min_over(integrator.seed: {DIFFERENCE})"),
+                "expected `over(",
+            ),
+            (
+                "verdict: rises over(integrator.seed: 1 - 2)".to_string(),
+                "reads no data",
+            ),
+        ] {
+            match verdict_of(&a, &b, &comment) {
+                Outcome::Broken(m) => assert!(m.contains(says), "{comment}: {m}"),
+                other => panic!("{comment}: {other:?}"),
+            }
+        }
+        // A seed whose difference is 0/0 is an error naming the seed, not a seed left out.
+        let ratio = "over(integrator.seed: (value(v: x where side=a) - 1) / (value(v: x where side=b) - 1))";
+        match verdict_of(
+            &[2.0, 1.0, 3.0],
+            &[2.0, 1.0, 3.0],
+            &format!("verdict: none within 0.5 {ratio}"),
+        ) {
+            Outcome::Broken(m) => {
+                assert!(m.contains("integrator.seed=2") && m.contains("NaN"), "{m}")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    /// The interval, t and n as numbers a document can cite.
+    #[test]
+    fn the_interval_is_a_citable_number() {
+        let dir = tempfile::tempdir().unwrap();
+        // a − b = 1, 2, 3: mean 2, sd 1, se 1/√3, t(2) = 4.303.
+        paired_study(dir.path(), &[2.0, 4.0, 6.0], &[1.0, 2.0, 3.0]);
+        let doc = dir.path().join("paper.md");
+        let q = |f: &str| format!("{f}_over(integrator.seed: {DIFFERENCE})");
+        std::fs::write(
+            &doc,
+            format!(
+                "from −0.484<!-- = {} --> to 4.484<!-- = {} -->, t 3.464<!-- = {} --> over 3<!-- = {} --> seeds\n",
+                q("ci_low"),
+                q("ci_high"),
+                q("t"),
+                q("n")
+            ),
+        )
+        .unwrap();
+        let o = outcomes(&doc, &ClaimOptions::default());
+        assert!(o.iter().all(|o| matches!(o, Outcome::Agrees(_))), "{o:?}");
+    }
+
+    /// Case 16 of the fifth reliability round: a NaN seed or cell was dropped by min, max
+    /// and median (median sorted it last), and the condition held.
+    #[test]
+    fn a_nan_seed_or_cell_is_refused_by_every_aggregate() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = dir.path().join("n");
+        std::fs::create_dir_all(&s).unwrap();
+        std::fs::write(
+            s.join("cells.csv"),
+            "cell,seed,a,b,c\n0,1,1,1,0.7\n1,2,0,0,NaN\n2,3,3,2,0.9\n3,4,2,2,0.8\n",
+        )
+        .unwrap();
+        let doc = dir.path().join("paper.md");
+        for claim in [
+            "holds: min_over(seed: value(n: a) / value(n: b)) >= 0.5",
+            "holds: max_over(seed: value(n: a) / value(n: b)) <= 1.5",
+            "holds: median_over(seed: value(n: a) / value(n: b)) >= 0.5",
+            "holds: min(n: c) >= 0.5",
+            "holds: max(n: c) <= 0.95",
+            "holds: median(n: c) <= 0.86",
+            "holds: mean(n: c) <= 0.85",
+        ] {
+            std::fs::write(&doc, format!("x<!-- {claim} -->\n")).unwrap();
+            match &outcomes(&doc, &ClaimOptions::default())[0] {
+                Outcome::Broken(m) => assert!(m.contains("NaN"), "{claim}: {m}"),
+                other => panic!("{claim}: {other:?}"),
+            }
+        }
+    }
+
+    /// Case 17: a condition between numbers written in it read no data and "agreed".
+    #[test]
+    fn a_claim_that_reads_no_data_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        study(dir.path());
+        let doc = dir.path().join("paper.md");
+        for claim in ["holds: 1 < 2", "holds: 2 * (3 - 1) >= 4", "= 6 / 2"] {
+            std::fs::write(&doc, format!("3<!-- {claim} -->\n")).unwrap();
+            match &outcomes(&doc, &ClaimOptions::default())[0] {
+                Outcome::Broken(m) => assert!(m.contains("reads no data"), "{claim}: {m}"),
+                other => panic!("{claim}: {other:?}"),
+            }
+        }
+        std::fs::write(&doc, "x<!-- holds: count(s: cell) > 3 -->\n").unwrap();
+        assert!(matches!(
+            outcomes(&doc, &ClaimOptions::default())[0],
+            Outcome::Holds(..)
+        ));
+    }
+
+    /// Case 8: `--update` moved the rest of the document for every rewritten number.
+    #[test]
+    fn updating_is_linear_in_the_document() {
+        work::assert_linear("updated", 2000, 1.1, |n| {
+            let line = "RMSE 0.0321<!-- = value(s: rmse where nused=25, seed=1) --> x\n";
+            let text = line.repeat(n);
+            let checked: Vec<Checked> = document::claims_in(&text)
+                .into_iter()
+                .map(|f| match f {
+                    Found::Claim(claim) => Checked {
+                        line: claim.line,
+                        claim: Some(claim),
+                        outcome: Outcome::Differs(0.0312),
+                    },
+                    Found::Malformed { why, .. } => panic!("{why}"),
+                })
+                .collect();
+            let mut new = String::new();
+            let steps = work::of(|| new = updated(&text, &checked));
+            assert_eq!(new, text.replace("0.0321", "0.0312"));
+            steps
+        });
     }
 }

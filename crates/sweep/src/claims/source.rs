@@ -51,6 +51,16 @@ pub(crate) fn shown(value: &str) -> String {
     )
 }
 
+/// How an error names a group (a seed's value): a short number as it is, anything else
+/// as [`shown`] does.
+pub(crate) fn shown_short(value: &str) -> String {
+    if value.len() <= 6 && value.parse::<f64>().is_ok() {
+        volphot::escaped_prefix(value.as_bytes(), 6)
+    } else {
+        shown(value)
+    }
+}
+
 fn read_table(path: &Path, text: &str) -> Result<Table> {
     let mut reader = csv::Reader::from_reader(text.as_bytes());
     let headers: Vec<String> = reader
@@ -239,7 +249,7 @@ fn table_values(table: &Table, call: &Call, key: &str) -> Result<Vec<(f64, Strin
         }
     }
     let mut values = Vec::new();
-    for row in &table.rows {
+    for (i, row) in table.rows.iter().enumerate() {
         if !passes(&call.filters, |k| row.get(k).cloned())? {
             continue;
         }
@@ -250,6 +260,15 @@ fn table_values(table: &Table, call: &Call, key: &str) -> Result<Vec<(f64, Strin
         let value: f64 = text
             .parse()
             .map_err(|_| anyhow!("`{}` holds {}, not a number", call.column, shown(text)))?;
+        // `NaN` and `inf` parse as numbers; no aggregate may sort, skip or average them.
+        if !value.is_finite() {
+            bail!(
+                "`{}` holds {} in record {} (after the header), not a finite number: an undefined metric is an empty cell",
+                call.column,
+                shown(text),
+                i + 1
+            );
+        }
         let group = if key.is_empty() {
             String::new()
         } else {

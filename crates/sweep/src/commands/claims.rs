@@ -23,25 +23,29 @@ pub(crate) fn run(args: &ClaimsArgs) -> Result<ExitCode> {
         let checked = check_document(document, &options)?;
         let count = |f: fn(&Outcome) -> bool| checked.iter().filter(|c| f(&c.outcome)).count();
         let differ = count(|o| matches!(o, Outcome::Differs(_) | Outcome::Coarse(_)));
+        let hold = count(|o| matches!(o, Outcome::Holds(..)));
         let fail = count(|o| matches!(o, Outcome::Fails(..)));
+        let verdicts = count(|o| matches!(o, Outcome::Judged(_)));
+        let disagree = count(|o| matches!(o, Outcome::Judged(j) if !j.agrees()));
         let broken = count(|o| matches!(o, Outcome::Broken(_)));
         for c in &checked {
-            if args.verbose || !matches!(c.outcome, Outcome::Agrees(_) | Outcome::Holds(..)) {
+            if args.verbose || !c.outcome.is_right() {
                 println!("{}", line(document.display(), c, args.update));
             }
         }
         println!(
-            "{}: {} claims, {} agree with the data, {differ} differ{}, {fail} conditions fail, {broken} cannot be checked",
+            "{}: {} claims, {} agree with the data ({hold} conditions hold, {} verdicts agree), {differ} differ{}, {fail} conditions fail, {disagree} verdicts disagree, {broken} cannot be checked",
             document.display(),
             checked.len(),
-            checked.len() - differ - broken - fail,
+            checked.len() - differ - broken - fail - disagree,
+            verdicts - disagree,
             if args.update && differ > 0 {
                 " (rewritten from the data)"
             } else {
                 ""
             }
         );
-        wrong += broken + fail + if args.update { 0 } else { differ };
+        wrong += broken + fail + disagree + if args.update { 0 } else { differ };
     }
     Ok(if wrong == 0 {
         ExitCode::SUCCESS
@@ -50,22 +54,27 @@ pub(crate) fn run(args: &ClaimsArgs) -> Result<ExitCode> {
     })
 }
 
-/// `--uncited`: every number that looks measured and carries no claim.
+/// `--uncited`: every number that looks measured and carries no claim, and every comment
+/// that hides text from the review (never closed, or not rendered as one comment).
 fn uncited(args: &ClaimsArgs) -> Result<ExitCode> {
     let mut any = 0;
     for document in &args.documents {
         let text =
             volphot::read_text_capped(document, volphot::TEXT_INPUT_CAP, "Markdown document")?;
-        let list = uncited_numbers(&text);
-        for u in &list {
+        let review = uncited_numbers(&text);
+        for (line, why) in &review.problems {
+            println!("{}:{line}: cannot be reviewed: {why}", document.display());
+        }
+        for u in &review.uncited {
             println!("{}:{}: {} has no claim", document.display(), u.line, u.text);
         }
         println!(
-            "{}: {} numbers look measured and carry no claim",
+            "{}: {} numbers look measured and carry no claim, {} comments keep text from review",
             document.display(),
-            list.len()
+            review.uncited.len(),
+            review.problems.len()
         );
-        any += list.len();
+        any += review.uncited.len() + review.problems.len();
     }
     Ok(if any == 0 {
         ExitCode::SUCCESS
@@ -112,6 +121,17 @@ fn line(file: impl std::fmt::Display, c: &Checked, updated: bool) -> String {
             "cited {cited} has fewer than two significant digits and the data give {v:.6}: print two (`--update` does), or add a tolerance (`= … ± 0.5`)"
         ),
         Outcome::Holds(..) | Outcome::Fails(..) => condition(c),
+        Outcome::Judged(j) if j.agrees() => format!(
+            "verdict {} agrees with the rule: {}",
+            j.declared.word(),
+            j.numbers()
+        ),
+        Outcome::Judged(j) => format!(
+            "the sentence says {}, the rule gives {} (a paired t-test at the 5 % level): {}",
+            j.declared.word(),
+            j.computed.word(),
+            j.numbers()
+        ),
         Outcome::Broken(why) => format!("cannot be checked: {why}"),
     };
     format!("{file}:{}: {what} — {}", c.line, c.query())
