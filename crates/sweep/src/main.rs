@@ -9,6 +9,7 @@ mod bench;
 mod claims;
 mod cli;
 mod commands;
+mod confine;
 mod cost;
 #[cfg(test)]
 mod fuzz;
