@@ -59,6 +59,23 @@ pub(crate) fn with_default_subcommand(
     args
 }
 
+/// The command line parsed (after [`with_default_subcommand`]); a clap error ends the
+/// process with clap's message and exit code.
+pub(crate) fn parse(args: Vec<std::ffi::OsString>) -> Cli {
+    try_parse(args).unwrap_or_else(|e| e.exit())
+}
+
+/// [`parse`] without ending the process. Every verb takes a negative number as an option's
+/// value, so `--threads -1` reaches the option's own check and is refused naming the option,
+/// the value and what it expects (clap read `-1` as an unknown flag: "unexpected argument
+/// '-1'").
+pub(crate) fn try_parse(args: Vec<std::ffi::OsString>) -> Result<Cli, clap::Error> {
+    use clap::{CommandFactory, FromArgMatches};
+    let command = Cli::command().mut_subcommands(|verb| verb.allow_negative_numbers(true));
+    let mut matches = command.try_get_matches_from(with_default_subcommand(args))?;
+    Cli::from_arg_matches_mut(&mut matches)
+}
+
 /// The verbs.
 #[derive(Debug, Subcommand)]
 pub(crate) enum Command {

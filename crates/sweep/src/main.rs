@@ -21,10 +21,8 @@ mod report;
 mod store;
 mod tune;
 
-use clap::Parser;
-
 fn main() -> std::process::ExitCode {
-    let cli = cli::Cli::parse_from(cli::with_default_subcommand(std::env::args_os().collect()));
+    let cli = cli::parse(std::env::args_os().collect());
     match commands::dispatch(cli) {
         Ok(code) => code,
         Err(err) => {
