@@ -213,6 +213,12 @@ pub(crate) struct RenderArgs {
     /// Image size `WIDTHxHEIGHT` (overrides the scene's camera resolution).
     #[arg(long, value_parser = parse_resolution)]
     pub(crate) resolution: Option<[u32; 2]>,
+    /// Write even where a file `sweep render` did not make would be replaced (a study's
+    /// `plan.json` or `cells.json`, any other file of the same name), or into a study's
+    /// folder. Without it those are refused before rendering; the files of an earlier
+    /// render of the same scene are always replaced.
+    #[arg(long)]
+    pub(crate) force: bool,
     /// Hide the progress bar.
     #[arg(long, short)]
     pub(crate) quiet: bool,
