@@ -87,17 +87,22 @@ fn check_replaces_only_renders(folder: &Path, stem: &str) -> Result<()> {
         folder.display(),
         plan.display()
     );
-    let ours = is_render_sidecar(&folder.join(&names[0]));
+    let sidecar = folder.join(&names[0]);
+    let ours = is_render_sidecar(&sidecar);
     let foreign: Vec<&String> = names
         .iter()
         .filter(|name| !ours && folder.join(name).symlink_metadata().is_ok())
         .collect();
     if let Some(first) = foreign.first() {
         anyhow::bail!(
-            "--output {}: would replace {}, which no earlier `sweep render` of `{stem}` wrote (its {} is not a render record); choose another --output, or pass --force to replace {}",
+            "--output {}: would replace {}, which no earlier `sweep render` of `{stem}` wrote ({}); choose another --output, or pass --force to replace {}",
             folder.display(),
             folder.join(first).display(),
-            names[0],
+            if sidecar.symlink_metadata().is_ok() {
+                format!("{} is not a render record", names[0])
+            } else {
+                format!("no render record {} beside it", names[0])
+            },
             if foreign.len() == 1 {
                 "it".to_string()
             } else {
