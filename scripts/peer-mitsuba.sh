@@ -19,6 +19,19 @@ MITSUBA_VERSION="3.9.1"
 
 log() { echo "peer-mitsuba: $*" >&2; }
 
+# The scene is checked before anything is installed (a mistyped path used to cost a
+# Mitsuba install, and as root a Debian package, before `sweep` said it was missing).
+SCENE="$ROOT/experiments/scenes/phantom-head.toml"
+if [ $# -gt 0 ] && [[ "$1" != -* ]]; then
+  SCENE="$1"; shift
+fi
+if [ ! -f "$SCENE" ] || [ ! -r "$SCENE" ]; then
+  log "error: scene $SCENE: no such readable file (expected a volphot scene, e.g. experiments/scenes/phantom-head.toml); nothing was installed"
+  exit 2
+fi
+# Absolute, since the bench runs from the checkout's root.
+SCENE="$(cd "$(dirname "$SCENE")" && pwd)/$(basename "$SCENE")"
+
 if [ ! -x "$VENV/bin/python" ] || ! "$VENV/bin/python" -c "import mitsuba, numpy" 2>/dev/null; then
   log "installing Mitsuba $MITSUBA_VERSION into $VENV"
   python3 -m venv "$VENV"
@@ -37,10 +50,6 @@ if [ -z "$SWEEP" ]; then
   SWEEP="$ROOT/target/release/sweep"
 fi
 
-SCENE="$ROOT/experiments/scenes/phantom-head.toml"
-if [ $# -gt 0 ] && [[ "$1" != -* ]]; then
-  SCENE="$1"; shift
-fi
 EXTRA=()
 if [[ " $* " != *" --resolution "* ]]; then
   EXTRA+=(--resolution 128x128)

@@ -51,29 +51,90 @@ def write_pfm(path, image):
     os.replace(path + ".tmp", path)
 
 
+def existing_file(text):
+    """An argparse type: a readable regular file (the scene), checked before Mitsuba loads."""
+    if not os.path.isfile(text):
+        raise argparse.ArgumentTypeError("%s: no such file (expected an exported Mitsuba XML)" % text)
+    if not os.access(text, os.R_OK):
+        raise argparse.ArgumentTypeError("%s: not readable" % text)
+    return text
+
+
+def comma_list(kind, what, valid):
+    """An argparse type: comma-separated values of `kind`, each passing `valid`."""
+    def parse(text):
+        values = []
+        for part in text.split(","):
+            try:
+                value = kind(part.strip())
+            except ValueError:
+                raise argparse.ArgumentTypeError("%r: expected %s" % (part, what))
+            if not valid(value):
+                raise argparse.ArgumentTypeError("%r: expected %s" % (part, what))
+            values.append(value)
+        return values
+    return parse
+
+
+def at_least(low, what):
+    """An argparse type: an integer >= low."""
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError("%r: expected %s" % (text, what))
+        if value < low:
+            raise argparse.ArgumentTypeError("%r: expected %s" % (text, what))
+        return value
+    return parse
+
+
+def max_depth(value):
+    """Mitsuba's max_depth: -1 (unbounded) or at least 1."""
+    return value == -1 or value >= 1
+
+
+def import_mitsuba(ap):
+    """drjit, mitsuba and numpy, imported once the arguments are read; without them, an
+    error that says how to get them instead of a traceback."""
+    try:
+        import drjit as dr
+        import mitsuba as mi
+        import numpy as np
+    except ImportError as e:
+        ap.exit(2, "%s: error: %s: Mitsuba 3 is not installed for %s; "
+                   "scripts/peer-mitsuba.sh installs it into its own virtual environment\n"
+                   % (ap.prog, e, sys.executable))
+    return dr, mi, np
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("scene", help="the exported Mitsuba XML")
+    ap.add_argument("scene", type=existing_file, help="the exported Mitsuba XML")
     ap.add_argument("--out", required=True, help="folder for the PFM images")
-    ap.add_argument("--max-depth", default="2,-1", help="comma-separated (2: single scattering)")
-    ap.add_argument("--spp", default="4,16,64", help="comma-separated samples per pixel")
-    ap.add_argument("--seeds", type=int, default=1, help="seeds 0..N-1 per setting")
-    ap.add_argument("--variant", default="auto", help="auto, scalar_rgb or llvm_ad_rgb")
-    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--max-depth", default="2,-1",
+                    type=comma_list(int, "-1 or an integer >= 1", max_depth),
+                    help="comma-separated (2: single scattering, -1: all)")
+    ap.add_argument("--spp", default="4,16,64",
+                    type=comma_list(int, "an integer >= 1", lambda v: v >= 1),
+                    help="comma-separated samples per pixel")
+    ap.add_argument("--seeds", type=at_least(1, "an integer >= 1"), default=1,
+                    help="seeds 0..N-1 per setting")
+    ap.add_argument("--variant", default="auto", choices=["auto", "scalar_rgb", "llvm_ad_rgb"])
+    ap.add_argument("--threads", type=at_least(1, "an integer >= 1"), default=2)
     args = ap.parse_args()
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        ap.error("--out %s: is a file; expected a folder" % args.out)
 
     variant = pick_variant(args.variant)
-    import drjit as dr
-    import mitsuba as mi
-    import numpy as np
-
+    dr, mi, np = import_mitsuba(ap)
     mi.set_variant(variant)
     dr.set_thread_count(args.threads)
     os.makedirs(args.out, exist_ok=True)
-    for depth in [int(d) for d in args.max_depth.split(",")]:
+    for depth in args.max_depth:
         scene = mi.load_file(args.scene, max_depth=depth)
         np.array(mi.render(scene, spp=1, seed=10**6))  # warm-up (JIT compile), not timed
-        for spp in [int(s) for s in args.spp.split(",")]:
+        for spp in args.spp:
             for seed in range(args.seeds):
                 wall, cpu = time.perf_counter(), time.process_time()
                 image = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float32)

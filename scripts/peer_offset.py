@@ -16,12 +16,14 @@ ${XDG_CACHE_HOME:-~/.cache}/volphot/mitsuba-venv); the variant is chosen as the 
 """
 import argparse
 import json
+import math
 import os
 import re
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from peer_mitsuba import pick_variant  # noqa: E402
+from peer_mitsuba import (  # noqa: E402
+    at_least, comma_list, existing_file, import_mitsuba, max_depth, pick_variant)
 
 
 def translated(xml, t):
@@ -44,24 +46,30 @@ def translated(xml, t):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("scene", help="the exported Mitsuba XML")
-    ap.add_argument("--translate", default="0,4,9", help="comma-separated T")
-    ap.add_argument("--spp", type=int, default=64)
-    ap.add_argument("--seeds", type=int, default=6)
+    ap.add_argument("scene", type=existing_file, help="the exported Mitsuba XML")
+    ap.add_argument("--translate", default="0,4,9", help="comma-separated T",
+                    type=comma_list(float, "a finite number", math.isfinite))
+    ap.add_argument("--spp", type=at_least(1, "an integer >= 1"), default=64)
+    ap.add_argument("--seeds", type=at_least(2, "an integer >= 2 (the standard error needs two)"),
+                    default=6)
     ap.add_argument("--max-depth", type=int, default=2, help="2: single scattering, -1: all")
-    ap.add_argument("--variant", default="auto")
+    ap.add_argument("--variant", default="auto", choices=["auto", "scalar_rgb", "llvm_ad_rgb"])
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args()
+    if not max_depth(args.max_depth):
+        ap.error("--max-depth %d: expected -1 or an integer >= 1" % args.max_depth)
+    if args.json and not os.path.isdir(os.path.dirname(os.path.abspath(args.json))):
+        ap.error("--json %s: its folder does not exist" % args.json)
+    if not args.scene.endswith(".xml"):
+        ap.error("%s: expected an exported Mitsuba scene (.xml)" % args.scene)
     variant = pick_variant(args.variant)
-    import drjit as dr
-    import mitsuba as mi
-    import numpy as np
+    dr, mi, np = import_mitsuba(ap)
 
     mi.set_variant(variant)
     dr.set_thread_count(2)
     xml = open(args.scene).read()
     rows = []
-    for t in [float(v) for v in args.translate.split(",")]:
+    for t in args.translate:
         path = args.scene.replace(".xml", "-moved.xml")
         with open(path, "w") as f:
             f.write(translated(xml, t))

@@ -3,6 +3,7 @@
 //! * `runs` — experiments, reports, resuming, locking, errors, `sweep render`;
 //! * `reliability` — inputs and events that used to hang, exhaust memory or mislead;
 //! * `hardening` — the newest verbs (`claims`, `index`, `--update`) and loose inputs, round 4;
+//! * `guards` — files a verb did not make, ignored axes, the peer's images and scripts, round 5;
 //! * `faults` — runs killed at many moments, damaged cells, a full file system;
 //! * `figures` — the report's plots draw what the cells say, with their data beside them;
 //! * `import` — the thesis's pbrt-v1 scenes through `sweep import`;
@@ -20,6 +21,7 @@ mod browser;
 mod claims;
 mod faults;
 mod figures;
+mod guards;
 mod hardening;
 mod import;
 mod medical;

@@ -60,16 +60,21 @@ fn other_value(key: &str) -> &'static str {
         "target_rmse" => "target_rmse = 0.5",
         "radius" => "radius = \"nearest\"",
         "eye_rays" => "eye_rays = \"fresh\"",
+        "light_samples" => "light_samples = 4",
         other => panic!("no other value for `{other}`"),
     }
 }
 
 /// Every layer of a render of `integrator` (the extra `[integrator]` lines).
 fn layers(integrator: &str) -> Option<Vec<Vec<[u32; 3]>>> {
-    let text = scene_text(integrator);
-    let params = volphot::SceneParams::from_toml(&text, std::path::Path::new("t.toml")).ok()?;
+    layers_of(&scene_text(integrator))
+}
+
+/// Every layer of a render of the scene `text`, bit for bit.
+fn layers_of(text: &str) -> Option<Vec<Vec<[u32; 3]>>> {
+    let params = volphot::SceneParams::from_toml(text, std::path::Path::new("t.toml")).ok()?;
     volphot::validate_params(&params).ok()?;
-    let scene = common::scene(&text);
+    let scene = common::scene(text);
     let film = render(&scene, &Control::none()).ok()?.film;
     Some(
         Layer::ALL
@@ -102,7 +107,7 @@ fn every_ignored_key_leaves_the_image_bit_identical() {
         let params =
             volphot::SceneParams::from_toml(&scene_text(structure), std::path::Path::new("t.toml"))
                 .unwrap();
-        for key in params.integrator.ignored_keys() {
+        for key in params.ignored_integrator_keys() {
             let changed = format!("{structure}\n{}", other_value(key));
             // Some combinations are refused by validation (a cache with beams): nothing to
             // compare there.
@@ -127,4 +132,27 @@ fn a_key_that_is_read_changes_the_image() {
         let other = layers(&format!("estimator = \"points\"\n{read}")).unwrap();
         assert!(other != base, "{read} should change a points render");
     }
+}
+
+/// Row 14 of the fifth reliability round: `light_samples` under spot lights only gave two
+/// addresses of one image. It is ignored there (listed, and the image the same, above) and
+/// read where a light has extent.
+#[test]
+fn light_samples_are_read_only_where_a_light_has_extent() {
+    let spots = scene_text("");
+    let params = volphot::SceneParams::from_toml(&spots, std::path::Path::new("t.toml")).unwrap();
+    assert!(params.ignored_integrator_keys().contains(&"light_samples"));
+    let cinematic = spots.replace("[three_point]\n", "[three_point]\nstyle = \"cinematic\"\n");
+    let params =
+        volphot::SceneParams::from_toml(&cinematic, std::path::Path::new("t.toml")).unwrap();
+    assert!(!params.ignored_integrator_keys().contains(&"light_samples"));
+    let more = cinematic.replace("[integrator]\n", "[integrator]\nlight_samples = 4\n");
+    assert!(
+        layers_of(&cinematic).unwrap() != layers_of(&more).unwrap(),
+        "light_samples should change a render under an area light and a sky"
+    );
+    let unlit_single = cinematic.replace("[integrator]\n", "[integrator]\nsingle = false\n");
+    let params =
+        volphot::SceneParams::from_toml(&unlit_single, std::path::Path::new("t.toml")).unwrap();
+    assert!(params.ignored_integrator_keys().contains(&"light_samples"));
 }

@@ -59,6 +59,23 @@ pub(crate) fn with_default_subcommand(
     args
 }
 
+/// The command line parsed (after [`with_default_subcommand`]); a clap error ends the
+/// process with clap's message and exit code.
+pub(crate) fn parse(args: Vec<std::ffi::OsString>) -> Cli {
+    try_parse(args).unwrap_or_else(|e| e.exit())
+}
+
+/// [`parse`] without ending the process. Every verb takes a negative number as an option's
+/// value, so `--threads -1` reaches the option's own check and is refused naming the option,
+/// the value and what it expects (clap read `-1` as an unknown flag: "unexpected argument
+/// '-1'").
+pub(crate) fn try_parse(args: Vec<std::ffi::OsString>) -> Result<Cli, clap::Error> {
+    use clap::{CommandFactory, FromArgMatches};
+    let command = Cli::command().mut_subcommands(|verb| verb.allow_negative_numbers(true));
+    let mut matches = command.try_get_matches_from(with_default_subcommand(args))?;
+    Cli::from_arg_matches_mut(&mut matches)
+}
+
 /// The verbs.
 #[derive(Debug, Subcommand)]
 pub(crate) enum Command {
@@ -196,6 +213,12 @@ pub(crate) struct RenderArgs {
     /// Image size `WIDTHxHEIGHT` (overrides the scene's camera resolution).
     #[arg(long, value_parser = parse_resolution)]
     pub(crate) resolution: Option<[u32; 2]>,
+    /// Write even where a file `sweep render` did not make would be replaced (a study's
+    /// `plan.json` or `cells.json`, any other file of the same name), or into a study's
+    /// folder. Without it those are refused before rendering; the files of an earlier
+    /// render of the same scene are always replaced.
+    #[arg(long)]
+    pub(crate) force: bool,
     /// Hide the progress bar.
     #[arg(long, short)]
     pub(crate) quiet: bool,
@@ -534,9 +557,15 @@ pub(crate) struct BenchArgs {
     /// Keep the peer comparison's files here (default: a temporary folder).
     #[arg(long)]
     pub(crate) peer_dir: Option<PathBuf>,
-    /// Write the measurements as JSON here.
+    /// Write the measurements as JSON here. An existing file is replaced only by the same
+    /// bench measured again (the same kind, scene, image size, σt, lighting and
+    /// configurations, as its recorded command line says); another bench's file, or a file
+    /// `sweep bench` did not write, is refused before any work unless --force.
     #[arg(long)]
     pub(crate) json: Option<PathBuf>,
+    /// Replace the --json file whatever it holds.
+    #[arg(long, requires = "json")]
+    pub(crate) force: bool,
     /// Write `--json` inside the repository even with uncommitted changes (its `commit`
     /// then ends in `-dirty`).
     #[arg(long, requires = "json")]
@@ -764,11 +793,139 @@ pub(crate) fn check_output_file(flag: &str, path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// What a bench measures, as its command line says: two command lines with equal
+/// measures re-measure one bench (more runs, seeds or threads measure it more precisely).
+#[derive(Debug)]
+struct Measures {
+    /// The scene: its resolved path when the file exists here, and its file name (a path
+    /// recorded outside the working folder keeps only its name, `…/foot.toml`).
+    scene: (Option<PathBuf>, String),
+    /// `(name, value)` of every other option that decides what is measured.
+    fields: Vec<(&'static str, String)>,
+}
+
+impl Measures {
+    /// What differs, as `name A here, B there`.
+    fn differences(&self, other: &Measures) -> Vec<String> {
+        let same_scene = match (&self.scene.0, &other.scene.0) {
+            (Some(a), Some(b)) => a == b,
+            _ => self.scene.1 == other.scene.1,
+        };
+        let scene =
+            (!same_scene).then(|| format!("scene {} here, {} there", self.scene.1, other.scene.1));
+        scene
+            .into_iter()
+            .chain(
+                self.fields
+                    .iter()
+                    .zip(&other.fields)
+                    .filter(|(a, b)| a.1 != b.1)
+                    .map(|(a, b)| format!("{} {} here, {} there", a.0, a.1, b.1)),
+            )
+            .collect()
+    }
+}
+
 impl BenchArgs {
+    /// The kind of bench, as `--help` names it.
+    fn kind(&self) -> &'static str {
+        match (self.peer, self.estimators, self.reference) {
+            (Some(Peer::Mitsuba), _, _) => "--peer mitsuba",
+            (None, true, _) => "--estimators",
+            (None, false, true) if self.budget => "--reference --budget",
+            (None, false, true) if self.routes => "--reference --routes",
+            (None, false, true) => "--reference",
+            (None, false, false) => "the configurations",
+        }
+    }
+
+    /// What this command line measures ([`Measures`]).
+    fn measures(&self) -> Measures {
+        let scene = self.scene.clone().unwrap_or_else(|| {
+            Path::new("experiments/scenes").join(if self.quick {
+                "phantom-foot.toml"
+            } else {
+                "foot.toml"
+            })
+        });
+        let name = scene
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let scene = (std::fs::canonicalize(&scene).ok(), name);
+        let sigma_t = if self.sigma_t.is_empty() && self.reference {
+            vec![80.0, 6.0]
+        } else {
+            self.sigma_t.clone()
+        };
+        let named = |v: Option<clap::builder::PossibleValue>| {
+            v.map_or(String::new(), |v| v.get_name().to_string())
+        };
+        let mut only: Vec<String> = self
+            .only
+            .iter()
+            .map(|c| named(c.to_possible_value()))
+            .collect();
+        only.sort();
+        let list = |items: Vec<String>, none: &str| {
+            if items.is_empty() {
+                none.to_string()
+            } else {
+                items.join(",")
+            }
+        };
+        let fields = vec![
+            ("kind", self.kind().to_string()),
+            ("quick", self.quick.to_string()),
+            (
+                "resolution",
+                self.resolution
+                    .map_or("the scene's".to_string(), |[w, h]| format!("{w}x{h}")),
+            ),
+            (
+                "sigma-t",
+                list(sigma_t.iter().map(f32::to_string).collect(), "the scene's"),
+            ),
+            (
+                "lighting",
+                self.lighting
+                    .map_or("the scene's".to_string(), |l| named(l.to_possible_value())),
+            ),
+            ("only", list(only, "all")),
+        ];
+        Measures { scene, fields }
+    }
+
+    /// Refuses, before any work, a `--json` file that holds something else than this bench
+    /// measured before: another bench's measurements (told by its recorded command line),
+    /// or a file `sweep bench` did not write. `--force` replaces it anyway.
+    fn check_replaces_only_this_bench(&self, json: &Path) -> Result<()> {
+        if self.force || json.symlink_metadata().is_err() {
+            return Ok(());
+        }
+        let recorded = recorded_bench(json);
+        let advice = "name another file, or pass --force to replace it";
+        let Some((command, old)) = recorded else {
+            anyhow::bail!(
+                "--json {}: exists, and `sweep bench` did not write it (no recorded `sweep bench` command line in it); {advice}",
+                json.display()
+            );
+        };
+        let differences = self.measures().differences(&old.measures());
+        anyhow::ensure!(
+            differences.is_empty(),
+            "--json {}: holds another bench (`{}`): {}; {advice}",
+            json.display(),
+            command.join(" "),
+            differences.join(", ")
+        );
+        Ok(())
+    }
+
     /// The validated options of `sweep bench`: where it writes is checked before it works.
     pub(crate) fn options(&self) -> Result<BenchOptions> {
         if let Some(json) = &self.json {
             check_output_file("--json", json)?;
+            self.check_replaces_only_this_bench(json)?;
             crate::bench::check_clean_for(json, self.allow_dirty)?;
         }
         if let Some(pool) = &self.reference_pool {
@@ -809,6 +966,26 @@ impl BenchArgs {
             routes: self.routes,
             lighting: self.lighting.map(Lighting::style),
         })
+    }
+}
+
+/// The command line a bench JSON recorded (`machine.command`) and its arguments, when it
+/// is one of `sweep bench` that this version reads.
+fn recorded_bench(json: &Path) -> Option<(Vec<String>, BenchArgs)> {
+    let text = volphot::read_text_capped(json, volphot::TEXT_INPUT_CAP, "bench JSON").ok()?;
+    let value: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let command: Vec<String> = value
+        .pointer("/machine/command")?
+        .as_array()?
+        .iter()
+        .map(|a| a.as_str().map(str::to_string))
+        .collect::<Option<_>>()?;
+    match try_parse(command.iter().map(Into::into).collect())
+        .ok()?
+        .command
+    {
+        Command::Bench(bench) => Some((command, bench)),
+        _ => None,
     }
 }
 

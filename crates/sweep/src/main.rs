@@ -9,6 +9,7 @@ mod bench;
 mod claims;
 mod cli;
 mod commands;
+mod confine;
 mod cost;
 #[cfg(test)]
 mod fuzz;
@@ -21,10 +22,8 @@ mod spans;
 mod store;
 mod tune;
 
-use clap::Parser;
-
 fn main() -> std::process::ExitCode {
-    let cli = cli::Cli::parse_from(cli::with_default_subcommand(std::env::args_os().collect()));
+    let cli = cli::parse(std::env::args_os().collect());
     match commands::dispatch(cli) {
         Ok(code) => code,
         Err(err) => {

@@ -123,3 +123,97 @@ fn no_user_string_becomes_script_in_chromium() {
         "console: {console:?}"
     );
 }
+
+/// The paper's Markdown extensions as a hostile contributor would use them (the fifth
+/// reliability round, row 3): heading attributes with `autofocus` and `onfocus`, a
+/// `style` that covers the page, raw `<details ontoggle>`, footnotes whose labels are
+/// markup or the ids of the page's own elements, a fenced block whose info string closes
+/// its class, `javascript:` and `data:` links and images. Opened in Chromium, no payload
+/// runs, nothing has focus, and no element carries an attribute from the text: no
+/// handler, no `style` but a table cell's alignment, no `autofocus` or `tabindex`, no
+/// `class` or `id` but the footnotes' own.
+const HOSTILE_PAPER: &str = r#"# Paper
+
+## Details {tabindex=0 autofocus onfocus="window.pwned=31"}
+
+## Cover {#explorer .x style="position:fixed;inset:0;background:red" onclick="window.pwned=32"}
+
+<details open ontoggle="window.pwned=33"><summary>x</summary></details>
+
+A note[^"><img src=x onerror="window.pwned=34">] and another[^explorer].
+
+[^"><img src=x onerror="window.pwned=34">]: the first.
+[^explorer]: the second.
+
+```js" onclick="window.pwned=35
+code
+```
+
+| a | b |
+|:--|--:|
+| [l](javascript:window.pwned=36) | ![i](data:image/svg+xml,<svg onload=window.pwned=37>) |
+
+[x]( JaVaScRiPt:window.pwned=38) <a href="javascript:window.pwned=39">y</a>
+"#;
+
+/// Every attribute on the page that did not come from the page's own fixed markup.
+const ATTRIBUTES: &str = r#"JSON.stringify((() => {
+  const found = [];
+  for (const e of document.body.querySelectorAll('*')) {
+    for (const a of Array.from(e.attributes)) {
+      const tag = e.tagName.toLowerCase();
+      const ok = (tag === 'a' && a.name === 'href' && !/^\s*(javascript|vbscript|data)/i.test(a.value))
+        || (tag === 'img' && (a.name === 'alt' || (a.name === 'src' && !/^\s*(javascript|data)/i.test(a.value))))
+        || ((tag === 'th' || tag === 'td') && a.name === 'style' && /^text-align: (left|center|right);?$/.test(a.value))
+        || (tag === 'div' && a.name === 'class' && a.value === 'footnote-definition')
+        || (tag === 'div' && a.name === 'id' && /^footnote-\d+$/.test(a.value))
+        || (tag === 'sup' && a.name === 'class' && /^footnote-(reference|definition-label)$/.test(a.value));
+      if (!ok) found.push(`<${tag} ${a.name}="${a.value}">`);
+    }
+  }
+  return {
+    pwned: window.pwned === undefined ? null : String(window.pwned),
+    focused: document.activeElement ? document.activeElement.tagName : null,
+    found,
+  };
+})())"#;
+
+#[test]
+fn paper_markdown_extensions_carry_no_attribute_in_chromium() {
+    let Some(chrome) = chromium() else {
+        skip(
+            "paper_markdown_extensions_carry_no_attribute_in_chromium",
+            "no Chromium: install Debian's `chromium` (.ci/run does) or set $CHROMIUM",
+        );
+        return;
+    };
+    let reports = kept_dir("browser-paper-extensions");
+    std::fs::write(reports.join("REPRODUCTION.md"), HOSTILE_PAPER).unwrap();
+    run_ok(sweep().arg("index").arg(&reports));
+    let page = reports.join("REPRODUCTION.html");
+    let browser = launch(chrome);
+    let tab = browser.new_tab().unwrap();
+    let console = watch_console(&tab);
+    // The handlers a probe's clicks and focus could set off.
+    let found = probe(&tab, &page);
+    assert_eq!(found["pwned"], Value::Null, "{found}");
+    assert_eq!(found["handlers"], serde_json::json!([]), "{found}");
+    let text = tab.evaluate(ATTRIBUTES, false).unwrap().value;
+    let found: Value = serde_json::from_str(
+        text.as_ref()
+            .and_then(Value::as_str)
+            .expect("a JSON string"),
+    )
+    .unwrap();
+    assert_eq!(found["pwned"], Value::Null, "{found}");
+    assert_eq!(found["focused"], "BODY", "{found}");
+    assert_eq!(found["found"], serde_json::json!([]), "{found}");
+    // The text is still there: the headings read as a code host shows them.
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(html.contains("<h2>Details {tabindex=0"), "{html}");
+    let console = console.lock().unwrap();
+    assert!(
+        console.iter().all(|l| !l.contains("pwned")),
+        "console: {console:?}"
+    );
+}

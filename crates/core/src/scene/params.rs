@@ -9,8 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use super::camera::{Camera, CameraParams};
 use super::diagnostics::{locate_error, toml_error};
-use super::light::{Light, LightParams, ThreePointParams};
-use super::settings::{FilmParams, IntegratorParams};
+use super::light::{Light, LightKind, LightParams, LightingStyle, ThreePointParams};
+use super::settings::{FilmParams, IntegratorParams, Method};
 use crate::error::{Error, Result};
 use crate::medium::{
     ClipParams, ClipSpace, DEFAULT_BRICK_SIZE, MappingKind, Medium, MediumSettings, Phase,
@@ -203,6 +203,43 @@ impl SceneParams {
     /// The parameters as a TOML table (for overrides and records).
     pub fn to_table(&self) -> toml::Table {
         toml::Table::try_from(self).expect("scene parameters serialise to TOML")
+    }
+
+    /// Whether a light of the scene has extent (an area light, an environment or sky, the
+    /// cinematic three-point layout): only those are sampled `light_samples` times.
+    pub fn has_light_with_extent(&self) -> bool {
+        self.three_point
+            .as_ref()
+            .is_some_and(|tp| tp.style == LightingStyle::Cinematic)
+            || self
+                .lights
+                .iter()
+                .any(|l| !matches!(l.kind, LightKind::Spot | LightKind::Point))
+    }
+
+    /// The `[integrator]` keys a render of this scene never reads: the settings' own
+    /// ([`IntegratorParams::ignored_keys`]), and `light_samples` where the marcher draws no
+    /// direction from a light — every light a spot or point (a delta light is evaluated,
+    /// never sampled), or no single scattering. Tested render by render, as the settings'.
+    pub fn ignored_integrator_keys(&self) -> Vec<&'static str> {
+        let mut keys = self.integrator.ignored_keys();
+        let i = &self.integrator;
+        if i.method == Method::Photon && (!i.single || !self.has_light_with_extent()) {
+            keys.push("light_samples");
+        }
+        keys
+    }
+
+    /// These parameters with every `[integrator]` key a render ignores
+    /// ([`SceneParams::ignored_integrator_keys`]) at its default: two scenes that differ
+    /// only there render the same image, and this is what a content address is taken over.
+    pub fn with_ignored_at_default(&self) -> SceneParams {
+        let mut p = self.clone();
+        p.integrator = self.integrator.with_ignored_at_default();
+        if self.ignored_integrator_keys().contains(&"light_samples") {
+            p.integrator.light_samples = IntegratorParams::default().light_samples;
+        }
+        p
     }
 }
 

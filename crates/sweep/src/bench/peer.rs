@@ -127,10 +127,14 @@ struct PeerReport {
 struct MitsubaRun {
     max_depth: i32,
     spp: u32,
+    seed: u32,
     file: PathBuf,
     cpu_s: f64,
     variant: String,
     mitsuba: String,
+    /// The image read from `file`, checked by [`read_mitsuba_images`].
+    #[serde(skip)]
+    image: Vec<Vec3>,
 }
 
 /// Runs the comparison.
@@ -175,7 +179,8 @@ pub(crate) fn run(
         join(&args.peer_spp),
         args.seeds
     );
-    let mitsuba = run_mitsuba(args, &files.scene, &dir.join("mitsuba"), threads)?;
+    let mut mitsuba = run_mitsuba(args, &files.scene, &dir.join("mitsuba"), threads)?;
+    read_mitsuba_images(&mut mitsuba, args, params.camera.resolution)?;
     eprintln!("peer: volphot reference ({passes} passes) and renders…");
     let report = pool.install(|| -> Result<PeerReport> {
         let references = [Part::Single, Part::All].map(|part| reference(&scene, part, passes));
@@ -375,6 +380,47 @@ fn run_mitsuba(
         .collect()
 }
 
+/// Reads every image Mitsuba wrote, before any volphot render: one for each part, sample
+/// count and seed asked for, each of the requested `[width, height]` and finite. An image of
+/// another size was compared pixel by pixel over the shorter of the two and reported as
+/// "136884× Mitsuba's efficiency".
+fn read_mitsuba_images(runs: &mut [MitsubaRun], args: &BenchOptions, size: [u32; 2]) -> Result<()> {
+    for part in [Part::Single, Part::All] {
+        for &spp in &args.peer_spp {
+            for seed in 0..args.seeds {
+                anyhow::ensure!(
+                    runs.iter()
+                        .any(|r| r.max_depth == part.max_depth() && r.spp == spp && r.seed == seed),
+                    "Mitsuba reported no render of max_depth {}, {spp} spp, seed {seed} (the peer script's output lacks it)",
+                    part.max_depth()
+                );
+            }
+        }
+    }
+    for run in runs.iter_mut() {
+        let (width, height, image) = read_pfm(&run.file)
+            .with_context(|| format!("reading Mitsuba's image {}", run.file.display()))?;
+        anyhow::ensure!(
+            [width, height] == size.map(|n| n as usize),
+            "Mitsuba's image {} is {width}×{height}, but {}×{} was rendered; the peer's images must have the requested size to be compared",
+            run.file.display(),
+            size[0],
+            size[1]
+        );
+        if let Some(at) = image.iter().position(|v| !v.is_finite()) {
+            bail!(
+                "Mitsuba's image {} holds a non-finite value at pixel ({}, {}): {:?}; it cannot be compared",
+                run.file.display(),
+                at % width,
+                at / width,
+                image[at]
+            );
+        }
+        run.image = image;
+    }
+    Ok(())
+}
+
 /// The Mitsuba driver (`scripts/peer_mitsuba.py`), built into the binary and written
 /// beside the exported scene: a `sweep` copied to another machine runs the script of its
 /// own version, never one looked up through the folder it was built in.
@@ -425,8 +471,8 @@ fn mitsuba_rows(
         let images = runs
             .iter()
             .filter(|r| r.max_depth == part.max_depth() && r.spp == spp)
-            .map(|r| Ok((read_pfm(&r.file)?.2, r.cpu_s)))
-            .collect::<Result<Vec<_>>>()?;
+            .map(|r| (r.image.clone(), r.cpu_s))
+            .collect::<Vec<_>>();
         let variant = runs.first().map_or("", |r| r.variant.as_str());
         rows.push(row(
             &format!("mitsuba {variant}"),
@@ -564,8 +610,8 @@ fn agree(
     let images = runs
         .iter()
         .filter(|r| r.max_depth == part.max_depth() && r.spp == spp)
-        .map(|r| Ok(read_pfm(&r.file)?.2))
-        .collect::<Result<Vec<Vec<Vec3>>>>()?;
+        .map(|r| r.image.clone())
+        .collect::<Vec<Vec<Vec3>>>();
     if images.len() < 2 {
         bail!(
             "the agreement needs at least 2 Mitsuba seeds at {spp} spp, got {}",

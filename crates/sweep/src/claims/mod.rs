@@ -313,10 +313,8 @@ fn folders(document: &Path, base: Option<&Path>) -> Result<(PathBuf, PathBuf)> {
         .map_or(PathBuf::from("."), Path::to_path_buf);
     let real = std::fs::canonicalize(&folder)
         .with_context(|| format!("the folder of {}", document.display()))?;
-    let root = real
-        .ancestors()
-        .find(|a| a.join(".git").exists())
-        .map_or(real.clone(), Path::to_path_buf);
+    let root = crate::confine::repository_of(&real)
+        .with_context(|| format!("the folder of {}", document.display()))?;
     Ok((real, root))
 }
 

@@ -9,12 +9,13 @@
 //! checked document is often a pull request's, and its errors land in a public CI log.
 
 use std::collections::HashMap;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
 use serde_json::Value;
 
 use super::expr::{Call, Data, Filter};
+use crate::confine::Refused;
 
 /// One table: rows of column key → text. A CSV header `ms_share [1]` has the key
 /// `ms_share` (its unit dropped), so a claim names a column as the documents do.
@@ -170,21 +171,18 @@ impl Sources {
             );
         }
         let inside = |path: &Path| -> Result<PathBuf> {
-            let real = std::fs::canonicalize(path)
-                .map_err(|_| anyhow!("source `{source}`: {} does not exist", path.display()))?;
-            let Ok(within) = real.strip_prefix(&self.root) else {
-                bail!(
+            crate::confine::inside(path, &self.root).map_err(|refused| match refused {
+                Refused::Missing(path) => {
+                    anyhow!("source `{source}`: {} does not exist", path.display())
+                }
+                Refused::Outside { root, .. } => anyhow!(
                     "source `{source}` leads outside {} (after resolving `..` and links); claims read only the document's repository",
-                    self.root.display()
-                );
-            };
-            if within
-                .components()
-                .any(|c| matches!(c, Component::Normal(n) if n.to_string_lossy().starts_with('.')))
-            {
-                bail!("source `{source}` is a hidden file or inside a hidden folder");
-            }
-            Ok(real)
+                    root.display()
+                ),
+                Refused::Hidden(_) => {
+                    anyhow!("source `{source}` is a hidden file or inside a hidden folder")
+                }
+            })
         };
         let mut path = inside(&self.from.join(relative))?;
         if path.is_dir() {

@@ -13,13 +13,16 @@ use crate::cli::{IntegratorChoice, RenderArgs};
 /// Renders the scene and writes its files into the output folder.
 pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode> {
     crate::cli::check_output_folder("--output", &args.output)?;
-    let params = scene_params(args)?;
-    let output = render_scene(args, &params)?;
     let stem = args
         .scene
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "render".into());
+    if !args.force {
+        check_replaces_only_renders(&args.output, &stem)?;
+    }
+    let params = scene_params(args)?;
+    let output = render_scene(args, &params)?;
     if !output.film.is_finite() {
         return Err(crate::render::non_finite(&stem, &output.film, &params));
     }
@@ -42,6 +45,72 @@ pub(crate) fn run(args: &RenderArgs) -> Result<ExitCode> {
         args.output.display()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// The files a render of a scene named `stem` writes, its sidecar first.
+fn output_names(stem: &str) -> [String; 5] {
+    [
+        format!("{stem}.json"),
+        format!("{stem}.exr"),
+        format!("{stem}.pfm"),
+        format!("{stem}.png"),
+        format!("{stem}_single.png"),
+    ]
+}
+
+/// Whether `file` is the JSON sidecar of a `sweep render` (a render record: the scene, the
+/// timings, the threads), not a study's `plan.json` or `cells.json` or anything else.
+fn is_render_sidecar(file: &Path) -> bool {
+    let Ok(text) = volphot::read_text_capped(file, volphot::TEXT_INPUT_CAP, "render record") else {
+        return false;
+    };
+    serde_json::from_str::<serde_json::Value>(&text).is_ok_and(|v| {
+        v.as_object().is_some_and(|record| {
+            ["scene", "timings", "threads", "version"]
+                .iter()
+                .all(|key| record.contains_key(*key))
+        })
+    })
+}
+
+/// Refuses, before any work, a render that would replace a file `sweep render` did not
+/// make — a study's `plan.json` or `cells.json` when the scene is named `plan` or `cells`,
+/// a picture of the user's — or write into a study's folder (it holds a `plan.json`). The
+/// files of an earlier render of the same scene (its sidecar `STEM.json` a render record)
+/// are replaced; `--force` replaces anything.
+fn check_replaces_only_renders(folder: &Path, stem: &str) -> Result<()> {
+    let names = output_names(stem);
+    let plan = folder.join("plan.json");
+    anyhow::ensure!(
+        !plan.exists() || names.contains(&"plan.json".to_string()),
+        "--output {}: holds a study of `sweep run` ({}); `sweep render` writes into a folder of its own: choose another --output, or pass --force to write into the study",
+        folder.display(),
+        plan.display()
+    );
+    let sidecar = folder.join(&names[0]);
+    let ours = is_render_sidecar(&sidecar);
+    let foreign: Vec<&String> = names
+        .iter()
+        .filter(|name| !ours && folder.join(name).symlink_metadata().is_ok())
+        .collect();
+    if let Some(first) = foreign.first() {
+        anyhow::bail!(
+            "--output {}: would replace {}, which no earlier `sweep render` of `{stem}` wrote ({}); choose another --output, or pass --force to replace {}",
+            folder.display(),
+            folder.join(first).display(),
+            if sidecar.symlink_metadata().is_ok() {
+                format!("{} is not a render record", names[0])
+            } else {
+                format!("no render record {} beside it", names[0])
+            },
+            if foreign.len() == 1 {
+                "it".to_string()
+            } else {
+                format!("all {}", foreign.len())
+            }
+        );
+    }
+    Ok(())
 }
 
 /// The scene file's parameters with the command line's overrides applied.

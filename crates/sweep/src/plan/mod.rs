@@ -311,21 +311,30 @@ impl Experiment {
         Ok((cells, hashes))
     }
 
-    /// The `[integrator]` keys of `key` (`integrator.eye_rays` → `eye_rays`) that every cell
-    /// ignores ([`volphot::IntegratorParams::ignored_keys`]).
+    /// Whether every cell ignores the `[integrator]` key of `key` (`integrator.eye_rays` →
+    /// `eye_rays`; [`volphot::SceneParams::ignored_integrator_keys`]).
     fn ignored_by_every_cell(cells: &[CellSpec], key: &str) -> bool {
         key.strip_prefix("integrator.").is_some_and(|k| {
             !cells.is_empty()
                 && cells
                     .iter()
-                    .all(|c| c.params.integrator.ignored_keys().contains(&k))
+                    .all(|c| c.params.ignored_integrator_keys().contains(&k))
         })
     }
 
-    /// Why the cells ignore a key: the first cell's estimator, or no multiple scattering.
-    fn why_ignored(cells: &[CellSpec]) -> String {
-        let i = &cells[0].params.integrator;
-        if !i.multiple {
+    /// Why the cells ignore `key`: the first cell's lights (for `light_samples`), its
+    /// estimator, or no multiple scattering.
+    fn why_ignored(cells: &[CellSpec], key: &str) -> String {
+        let p = &cells[0].params;
+        let i = &p.integrator;
+        if key == "integrator.light_samples" {
+            if !i.single {
+                "with single = false".to_string()
+            } else {
+                "every light is a spot or point light, which is evaluated, never sampled"
+                    .to_string()
+            }
+        } else if !i.multiple {
             "with multiple = false".to_string()
         } else {
             format!(
@@ -347,8 +356,13 @@ impl Experiment {
                 return Err(self.source.error(
                     &key,
                     format!(
-                        "`{key}` is an axis, but no cell reads it ({}): its values would render the same image under as many addresses; sweep it where it is read (progressive, beam or plane estimators, multiple = true) or drop the axis",
-                        Self::why_ignored(cells)
+                        "`{key}` is an axis, but no cell reads it ({}): its values would render the same image under as many addresses; sweep it where it is read ({}) or drop the axis",
+                        Self::why_ignored(cells, &key),
+                        if key == "integrator.light_samples" {
+                            "area, environment or sky lights, single = true"
+                        } else {
+                            "progressive, beam or plane estimators, multiple = true"
+                        }
                     ),
                 ));
             }
@@ -375,7 +389,7 @@ impl Experiment {
             .map(|(key, _)| {
                 format!(
                     "`{key}` is set, but no cell reads it ({}): it changes nothing",
-                    Self::why_ignored(cells)
+                    Self::why_ignored(cells, key)
                 )
             })
             .collect())

@@ -3,7 +3,8 @@
 //! user's text: written raw, a value such as `"><img src=x onerror=alert(1)>` became live
 //! HTML, a `|` split a table row, and a `javascript:` link ran script when clicked. Every
 //! such string goes through one of these, and every Markdown page is rendered to HTML
-//! through [`safe_events`], which keeps no raw HTML and no link but relative and http(s).
+//! through [`page_events`], the one sanitiser: an allow-list of tags and attributes, no raw
+//! HTML, and no link but relative and http(s).
 
 use pulldown_cmark::{Event, Tag, TagEnd};
 
@@ -196,38 +197,153 @@ fn link_destination(rest: &str) -> &str {
     &rest[..end]
 }
 
-/// The events of a Markdown page made safe to render: raw HTML is kept only as shown
-/// text (comments, such as the claims' queries, are dropped), and a link or image whose
-/// destination is not relative or http(s) keeps its text and loses its destination.
-pub(crate) fn safe_events<'a>(events: impl IntoIterator<Item = Event<'a>>) -> Vec<Event<'a>> {
-    let mut out = Vec::new();
-    // For each open link or image: whether it was dropped.
-    let mut dropped: Vec<bool> = Vec::new();
-    for event in events {
+/// The Markdown extensions every page reads user Markdown with: GitHub's tables,
+/// strikethrough and footnotes, so a page shows what a code host shows of the same file.
+/// Heading attributes (`## A {#id .class key=value}`) are not among them: a code host shows
+/// the braces as text, and as attributes they made `onfocus` with `autofocus` live.
+pub(crate) const PAGE_MARKDOWN: pulldown_cmark::Options = pulldown_cmark::Options::ENABLE_TABLES
+    .union(pulldown_cmark::Options::ENABLE_STRIKETHROUGH)
+    .union(pulldown_cmark::Options::ENABLE_FOOTNOTES);
+
+/// The one sanitiser of the HTML pages `sweep` writes (a study's `report.html`, the
+/// paper's page): Markdown from user text parsed with [`PAGE_MARKDOWN`] and every event
+/// rebuilt from an allow-list, so the HTML written from it holds only the tags CommonMark
+/// with tables and footnotes makes, and of attributes only a link's `href` and `title`, an
+/// image's `src`, `alt` and `title` (relative or http(s) addresses, [`safe_url`]), a list's
+/// `start`, a table cell's alignment and the footnotes' own numbered ids — never an event
+/// handler, `style`, `autofocus`, a class or an id written by the user. Raw HTML is kept
+/// only as shown text (comments, such as the claims' queries, are dropped); a link or
+/// image whose address is not safe keeps its text and loses its address. The page's own
+/// markup (figures, the explorer) is added to these events by the page.
+pub(crate) fn page_events(markdown: &str) -> Vec<Event<'_>> {
+    let mut sanitiser = Sanitiser::default();
+    pulldown_cmark::Parser::new_ext(markdown, PAGE_MARKDOWN)
+        .filter_map(|event| sanitiser.event(event))
+        .collect()
+}
+
+/// [`page_events`] written as HTML (the body of a page).
+pub(crate) fn page_html(markdown: &str) -> String {
+    let mut body = String::new();
+    pulldown_cmark::html::push_html(&mut body, page_events(markdown).into_iter());
+    body
+}
+
+/// The state of [`page_events`]: which open links were dropped, and the footnotes' labels
+/// by their numbered ids.
+#[derive(Default)]
+struct Sanitiser {
+    /// For each open link or image: whether it was dropped.
+    dropped: Vec<bool>,
+    /// Footnote labels in order of first use; label `i` is written as `footnote-{i + 1}`.
+    footnotes: Vec<String>,
+}
+
+impl Sanitiser {
+    /// The event as the page may write it, or `None` to leave it out.
+    fn event<'a>(&mut self, event: Event<'a>) -> Option<Event<'a>> {
+        use pulldown_cmark::CowStr;
         match event {
+            Event::Start(tag) => self.start(tag).map(Event::Start),
+            Event::End(TagEnd::Link | TagEnd::Image) => {
+                let dropped = self.dropped.pop().unwrap_or(false);
+                (!dropped).then_some(event)
+            }
+            Event::End(TagEnd::HtmlBlock | TagEnd::MetadataBlock(_)) => None,
+            Event::End(_) => Some(event),
             Event::Html(h) | Event::InlineHtml(h) => {
-                if !h.trim_start().starts_with("<!--") {
-                    out.push(Event::Text(h));
-                }
+                (!h.trim_start().starts_with("<!--")).then_some(Event::Text(h))
             }
-            Event::Start(Tag::HtmlBlock) | Event::End(TagEnd::HtmlBlock) => {}
-            Event::Start(Tag::Link { ref dest_url, .. })
-            | Event::Start(Tag::Image { ref dest_url, .. }) => {
-                let unsafe_url = !safe_url(dest_url);
-                dropped.push(unsafe_url);
-                if !unsafe_url {
-                    out.push(event);
-                }
+            Event::InlineMath(m) | Event::DisplayMath(m) => Some(Event::Code(m)),
+            Event::FootnoteReference(label) => Some(Event::FootnoteReference(CowStr::from(
+                self.footnote(&label),
+            ))),
+            Event::TaskListMarker(done) => {
+                Some(Event::Text(if done { "[x] " } else { "[ ] " }.into()))
             }
-            Event::End(TagEnd::Link) | Event::End(TagEnd::Image) => {
-                if !dropped.pop().unwrap_or(false) {
-                    out.push(event);
-                }
+            Event::Text(_) | Event::Code(_) | Event::SoftBreak | Event::HardBreak | Event::Rule => {
+                Some(event)
             }
-            other => out.push(other),
         }
     }
-    out
+
+    /// A start tag rebuilt from what the page needs of it; `None` drops it (raw HTML's
+    /// block, metadata, a link or image to an unsafe address).
+    fn start<'a>(&mut self, tag: Tag<'a>) -> Option<Tag<'a>> {
+        use pulldown_cmark::{CodeBlockKind, CowStr};
+        match tag {
+            // Level only: no id, class or attribute of the user's.
+            Tag::Heading { level, .. } => Some(Tag::Heading {
+                level,
+                id: None,
+                classes: Vec::new(),
+                attrs: Vec::new(),
+            }),
+            // The info string would become a class.
+            Tag::CodeBlock(_) => Some(Tag::CodeBlock(CodeBlockKind::Fenced("".into()))),
+            Tag::FootnoteDefinition(label) => {
+                Some(Tag::FootnoteDefinition(CowStr::from(self.footnote(&label))))
+            }
+            Tag::Link {
+                link_type,
+                dest_url,
+                title,
+                ..
+            } => self.kept(safe_url(&dest_url)).then(|| Tag::Link {
+                link_type,
+                dest_url,
+                title,
+                id: "".into(),
+            }),
+            Tag::Image {
+                link_type,
+                dest_url,
+                title,
+                ..
+            } => self.kept(safe_url(&dest_url)).then(|| Tag::Image {
+                link_type,
+                dest_url,
+                title,
+                id: "".into(),
+            }),
+            Tag::HtmlBlock | Tag::MetadataBlock(_) => None,
+            Tag::Paragraph
+            | Tag::BlockQuote(_)
+            | Tag::List(_)
+            | Tag::Item
+            | Tag::DefinitionList
+            | Tag::DefinitionListTitle
+            | Tag::DefinitionListDefinition
+            | Tag::Table(_)
+            | Tag::TableHead
+            | Tag::TableRow
+            | Tag::TableCell
+            | Tag::Emphasis
+            | Tag::Strong
+            | Tag::Strikethrough
+            | Tag::Superscript
+            | Tag::Subscript => Some(tag),
+        }
+    }
+
+    /// Records whether an opened link or image is kept.
+    fn kept(&mut self, safe: bool) -> bool {
+        self.dropped.push(!safe);
+        safe
+    }
+
+    /// The numbered id a footnote label is written as (`footnote-1` …), the same for its
+    /// references and its definition.
+    fn footnote(&mut self, label: &str) -> String {
+        let at = match self.footnotes.iter().position(|l| l == label) {
+            Some(at) => at,
+            None => {
+                self.footnotes.push(label.to_string());
+                self.footnotes.len() - 1
+            }
+        };
+        format!("footnote-{}", at + 1)
+    }
 }
 
 /// A link to a file of the index's folder: `./` and each path segment percent-encoded
@@ -347,17 +463,9 @@ mod tests {
     }
 
     #[test]
-    fn safe_events_drop_raw_html_and_unsafe_links() {
+    fn page_events_drop_raw_html_and_unsafe_links() {
         let md = "a <img src=x onerror=alert(1)> b <!-- = query -->\n\n<script>alert(1)</script>\n\n[j](javascript:alert(1)) [h](https://x.org)\n";
-        let mut html = String::new();
-        pulldown_cmark::html::push_html(
-            &mut html,
-            safe_events(pulldown_cmark::Parser::new_ext(
-                md,
-                pulldown_cmark::Options::all(),
-            ))
-            .into_iter(),
-        );
+        let html = page_html(md);
         assert!(
             !html.contains("<img") && !html.contains("<script"),
             "{html}"
@@ -370,6 +478,195 @@ mod tests {
             html.contains("href=\"https://x.org\"") && html.contains("<p>j <a"),
             "{html}"
         );
+    }
+
+    /// Row 3 of the fifth reliability round: heading attributes reached the paper's page,
+    /// so `{tabindex=0 autofocus onfocus=…}` ran script on load.
+    #[test]
+    fn heading_attributes_are_text_never_attributes() {
+        let html = page_html(
+            "## Details {tabindex=0 autofocus onfocus=alert(1)}\n\n## Cover {#explorer .x style=\"position:fixed\" onclick=alert(2)}\n",
+        );
+        let tags = tags_of(&html).unwrap();
+        assert!(
+            tags.iter().all(|(_, attributes)| attributes.is_empty()),
+            "{html}"
+        );
+        assert!(html.contains("<h2>Details {tabindex=0"), "{html}");
+    }
+
+    /// A tag's name and its attributes' names and values.
+    type HtmlTag = (String, Vec<(String, String)>);
+
+    /// The tags of generated HTML with their attributes (values with `&amp;`, `&quot;`,
+    /// `&lt;`, `&gt;` decoded); an error where the text is not well-formed tags and text.
+    /// pulldown-cmark escapes every `<` of text, so each `<` opens a tag.
+    fn tags_of(html: &str) -> Result<Vec<HtmlTag>, String> {
+        let mut tags = Vec::new();
+        let mut rest = html;
+        while let Some(open) = rest.find('<') {
+            let after = &rest[open + 1..];
+            let close = after.find('>').ok_or("an unclosed tag")?;
+            let inside = after[..close].trim_end_matches('/').trim();
+            rest = &after[close + 1..];
+            if inside.starts_with('/') {
+                continue;
+            }
+            let (name, mut attrs) = inside.split_once(' ').unwrap_or((inside, ""));
+            let mut attributes = Vec::new();
+            while !attrs.trim().is_empty() {
+                let (key, value_part) = attrs
+                    .trim_start()
+                    .split_once("=\"")
+                    .ok_or_else(|| format!("an attribute without a quoted value in <{inside}>"))?;
+                let end = value_part.find('"').ok_or("an unclosed attribute value")?;
+                let value = value_part[..end]
+                    .replace("&quot;", "\"")
+                    .replace("&lt;", "<")
+                    .replace("&gt;", ">")
+                    .replace("&amp;", "&");
+                attributes.push((key.trim().to_ascii_lowercase(), value));
+                attrs = &value_part[end + 1..];
+            }
+            tags.push((name.to_ascii_lowercase(), attributes));
+        }
+        Ok(tags)
+    }
+
+    /// What a page may hold from user Markdown: these tags, and of attributes only these.
+    fn allowed(tag: &str, attribute: &str, value: &str) -> bool {
+        let numbered = |prefix: &str| {
+            value
+                .strip_prefix(prefix)
+                .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+        };
+        match (tag, attribute) {
+            // An e-mail autolink is written `mailto:` and its address.
+            ("a", "href") => match value.strip_prefix("mailto:") {
+                Some(address) => !address.contains(':'),
+                None => safe_url(value) && (!value.starts_with('#') || numbered("#footnote-")),
+            },
+            ("img", "src") => safe_url(value),
+            ("a" | "img", "title") | ("img", "alt") => true,
+            ("ol", "start") => value.bytes().all(|b| b.is_ascii_digit()),
+            ("th" | "td", "style") => {
+                matches!(
+                    value,
+                    "text-align: left" | "text-align: center" | "text-align: right"
+                )
+            }
+            ("div", "class") => value == "footnote-definition",
+            ("div", "id") => numbered("footnote-"),
+            ("sup", "class") => {
+                matches!(value, "footnote-reference" | "footnote-definition-label")
+            }
+            ("blockquote", "class") => value.starts_with("markdown-alert-"),
+            _ => false,
+        }
+    }
+
+    const TAGS: [&str; 29] = [
+        "p",
+        "h1",
+        "h2",
+        "h3",
+        "h4",
+        "h5",
+        "h6",
+        "blockquote",
+        "pre",
+        "code",
+        "ol",
+        "ul",
+        "li",
+        "table",
+        "thead",
+        "tbody",
+        "tr",
+        "th",
+        "td",
+        "em",
+        "strong",
+        "del",
+        "sup",
+        "a",
+        "img",
+        "br",
+        "hr",
+        "div",
+        "dl",
+    ];
+
+    /// The paper's page (and a report's) from Markdown built of every extension an attacker
+    /// might combine — heading attributes, raw HTML blocks and inline tags, links and
+    /// images of every form, footnotes with hostile labels, fenced code with an info
+    /// string, tables with alignment, autolinks: whatever the mix, the HTML holds only the
+    /// allow-listed tags and attributes, and no address but relative and http(s).
+    #[test]
+    fn fuzz_page_markdown_keeps_only_allowed_markup() {
+        use proptest::prelude::*;
+        let fragment = prop::sample::select(vec![
+            "## Details {tabindex=0 autofocus onfocus=alert(1)}\n",
+            "# T {#explorer .c style=\"position:fixed;inset:0\" onclick=alert(1)}\n",
+            "### {data-x=1 onmouseover=alert(1)}\n",
+            "<details open ontoggle=alert(1)>\n",
+            "<div style=\"position:fixed\" autofocus tabindex=0 onfocus=alert(1)>x</div>\n",
+            "<img src=x onerror=alert(1)>",
+            "<a href=\"javascript:alert(1)\">a</a>",
+            "[a](javascript:alert(1))",
+            "[a](JaVaScRiPt:alert(1) \"t\\\" onclick=x\")",
+            "[a](<java\tscript:x>)",
+            "[a](&#106;avascript:alert(1))",
+            "![i](data:image/svg+xml,<svg onload=alert(1)>)",
+            "![i](x.png \"\\\" onerror=alert(1)\")",
+            "[r]: javascript:alert(1)\n",
+            "[a][r] ![b][r]",
+            "<javascript:alert(1)>",
+            "<https://x.org/a?b=\"c\">",
+            "<a@b.c>",
+            "[^\"><img src=x onerror=alert(1)>]",
+            "\n\n[^\"><img src=x onerror=alert(1)>]: note\n",
+            "[^explorer]\n\n[^explorer]: clobber\n",
+            "```js\" onclick=\"alert(1)\nx\n```\n",
+            "| a | b |\n|:--|--:|\n| <b onclick=x>1</b> | [l](javascript:x) |\n",
+            "> [!NOTE]\n> hi\n",
+            "1. a\n2. b\n",
+            "3) c\n",
+            "- [x] done\n",
+            "~~s~~ *e* **b** `c`",
+            "<!-- = query -->",
+            "$x$ $$y$$",
+            "---\ntitle: x\n---\n",
+            "\n\n",
+            " text ",
+            "[ok](https://x.org) ![ok](figures/a.png)",
+        ]);
+        let mut runner = proptest::test_runner::TestRunner::new(proptest::test_runner::Config {
+            cases: 2000,
+            failure_persistence: None,
+            ..Default::default()
+        });
+        runner
+            .run(&prop::collection::vec(fragment, 0..10), |parts| {
+                let markdown = parts.concat();
+                let html = page_html(&markdown);
+                let tags =
+                    tags_of(&html).map_err(|e| TestCaseError::fail(format!("{e}: {html}")))?;
+                for (tag, attributes) in tags {
+                    prop_assert!(
+                        TAGS.contains(&tag.as_str()),
+                        "<{tag}> from {markdown:?}: {html}"
+                    );
+                    for (name, value) in attributes {
+                        prop_assert!(
+                            allowed(&tag, &name, &value),
+                            "<{tag} {name}=\"{value}\"> from {markdown:?}: {html}"
+                        );
+                    }
+                }
+                Ok(())
+            })
+            .unwrap();
     }
 
     /// Descriptions built from every fragment an attacker might combine: whatever the mix,

@@ -1,19 +1,21 @@
 //! `report.html`: the report's Markdown as one self-contained page (images inlined), for a
 //! plain `file://` open without a network, with the image explorer before the first
 //! section; plot points and rows of the cells table open their cells in it. The Markdown is
-//! parsed by pulldown-cmark (CommonMark with tables), so the page shows what `report.md`
-//! shows on a code host: table alignment rows, joined paragraph lines, escapes.
+//! parsed by pulldown-cmark (CommonMark with GitHub's tables, strikethrough and footnotes)
+//! through the pages' one sanitiser ([`escape::page_events`]), so the page shows what
+//! `report.md` shows on a code host: table alignment rows, joined paragraph lines, escapes.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{Context, Result};
 use base64::Engine as _;
-use pulldown_cmark::{CowStr, Event, HeadingLevel, Options, Parser, Tag, TagEnd};
+use pulldown_cmark::{CowStr, Event, HeadingLevel, Tag, TagEnd};
 
 use super::escape;
 use super::explorer::Explorer;
 use super::{Figures, PlotFigure};
+use crate::confine::Refused;
 
 /// The page's own style. Wide tables scroll inside their box (`.table-wrap`) instead of
 /// widening the page; a figure's caption is the emphasised paragraph after it.
@@ -43,22 +45,38 @@ fn plot_points(plot: &PlotFigure) -> String {
 }
 
 /// An image of the report's folder as a `<figure>` with the PNG inlined; a plot gets its
-/// clickable points.
-fn figure(root: &Path, src: &str, alt: &str, plots: &[(String, &PlotFigure)]) -> Result<String> {
-    let bytes = volphot::read_bytes_capped(&root.join(src), 256 << 20, "figure (PNG)")
+/// clickable points. An image the Markdown names outside the folder (an absolute path, `..`,
+/// a link out, a hidden file: a description can name any) is not read — `None`, and it
+/// stays an address for the browser — so no file of the machine is inlined into the page.
+fn figure(
+    root: &Path,
+    src: &str,
+    alt: &str,
+    plots: &[(String, &PlotFigure)],
+) -> Result<Option<String>> {
+    let folder =
+        std::fs::canonicalize(root).with_context(|| format!("reading {}", root.display()))?;
+    let path = match crate::confine::inside(&root.join(src), &folder) {
+        Ok(path) => path,
+        Err(Refused::Missing(path)) => {
+            anyhow::bail!("embedding {src}: {} does not exist", path.display())
+        }
+        Err(Refused::Outside { .. } | Refused::Hidden(_)) => return Ok(None),
+    };
+    let bytes = volphot::read_bytes_capped(&path, 256 << 20, "figure (PNG)")
         .with_context(|| format!("embedding {src}"))?;
     let data = base64::engine::general_purpose::STANDARD.encode(bytes);
     let img = format!(
         "<img alt=\"{}\" src=\"data:image/png;base64,{data}\">",
         escape::html(alt)
     );
-    Ok(match plots.iter().find(|(path, _)| path == src) {
+    Ok(Some(match plots.iter().find(|(path, _)| path == src) {
         Some((_, plot)) => format!(
             "<figure class=\"plot\"><div class=\"plot-box\">{img}{}</div></figure>\n",
             plot_points(plot)
         ),
         None => format!("<figure>{img}</figure>\n"),
-    })
+    }))
 }
 
 /// A paragraph that holds one image and nothing else: its source and alt text.
@@ -107,16 +125,18 @@ pub(crate) fn html(
         .iter()
         .map(|p| (super::markdown::rel(root, &p.path), p))
         .collect();
-    // No raw HTML and no unsafe link reaches the page from the Markdown; the page's own
-    // markup (figures, the explorer) is added below.
-    let events: Vec<Event> = escape::safe_events(Parser::new_ext(markdown, Options::ENABLE_TABLES));
+    // The one sanitiser: nothing but allow-listed markup reaches the page from the
+    // Markdown; the page's own markup (figures, the explorer) is added below.
+    let events: Vec<Event> = escape::page_events(markdown);
     let explorer_at = explorer_position(&events);
     let mut out: Vec<Event> = Vec::with_capacity(events.len());
     let (mut explorer_placed, mut in_section_title, mut section) = (false, false, String::new());
     let mut i = 0;
     while i < events.len() {
-        if let Some((src, alt, used)) = lone_image(&events[i..]) {
-            out.push(Event::Html(figure(root, &src, &alt, &plots)?.into()));
+        if let Some((src, alt, used)) = lone_image(&events[i..])
+            && let Some(figure) = figure(root, &src, &alt, &plots)?
+        {
+            out.push(Event::Html(figure.into()));
             i += used;
             continue;
         }

@@ -52,13 +52,12 @@ pub(super) const ADDRESS_SHADOW_TOLERANCE: f32 = 0.05;
 /// address leaves each out at that old value, so cells rendered with it keep their
 /// addresses, and the path tracer, which neither thins nor fills, is addressed without them.
 ///
-/// A key the render does not read ([`volphot::IntegratorParams::ignored_keys`]: the
+/// A key the render does not read ([`volphot::SceneParams::ignored_integrator_keys`]: the
 /// progressive radius rule of a point estimate, `nused` of photon planes, every photon key
-/// without multiple scattering) is addressed at its default, so settings that render the
-/// same image share one address.
+/// without multiple scattering, `light_samples` under spot and point lights) is addressed
+/// at its default, so settings that render the same image share one address.
 fn addressed(params: &SceneParams) -> Result<String> {
-    let mut p = params.clone();
-    p.integrator = p.integrator.with_ignored_at_default();
+    let mut p = params.with_ignored_at_default();
     if !p.integrator.iterates() && p.integrator.alpha == volphot::DEFAULT_ALPHA {
         p.integrator.alpha = ADDRESS_ALPHA;
     }

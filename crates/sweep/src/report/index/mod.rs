@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 
 use super::escape;
+use crate::confine::Refused;
 use crate::store::{OutputDir, read_plan};
 
 /// What the index shows of one study folder.
@@ -35,13 +36,11 @@ struct Study {
     has_html: bool,
 }
 
-/// The first paragraph of the experiment copy's description (plain text).
-fn description(dir: &Path) -> String {
-    let Ok(text) = volphot::read_text_capped(
-        &dir.join("experiment.toml"),
-        volphot::TEXT_INPUT_CAP,
-        "experiment file",
-    ) else {
+/// The first paragraph of the description in the experiment copy at `file` (plain text).
+fn description(file: Option<&Path>) -> String {
+    let Some(Ok(text)) = file
+        .map(|file| volphot::read_text_capped(file, volphot::TEXT_INPUT_CAP, "experiment file"))
+    else {
         return String::new();
     };
     let table: toml::Table = text.parse().unwrap_or_default();
@@ -83,12 +82,30 @@ fn representative_image(dir: &Path, folder: &str) -> Option<String> {
     .or_else(|| pick("figures/plots", &|n| n.starts_with('p')))
 }
 
-fn study(root: &Path, folder: &str) -> Result<Option<Study>> {
-    let dir = root.join(folder);
-    if !dir.join("plan.json").exists() {
-        return Ok(None);
+/// A file of the indexed folder, resolved inside `repository` ([`crate::confine`]); `None`
+/// when there is none. A link out of the repository or a hidden file is an error: its text
+/// would be rendered into a page that gets committed.
+fn confined(path: &Path, repository: &Path) -> Result<Option<PathBuf>> {
+    match crate::confine::inside(path, repository) {
+        Ok(real) => Ok(Some(real)),
+        Err(Refused::Missing(_)) => Ok(None),
+        Err(refused) => anyhow::bail!(
+            "{refused}; the index reads only files inside the repository it indexes, {}",
+            repository.display()
+        ),
     }
-    let plan = read_plan(&OutputDir::new(&dir))?;
+}
+
+/// A study folder's card data; `None` when it holds no `plan.json`. Every file it reads
+/// stays inside `repository`.
+fn study(root: &Path, repository: &Path, folder: &str) -> Result<Option<Study>> {
+    let dir = root.join(folder);
+    let Some(plan_file) = confined(&dir.join("plan.json"), repository)? else {
+        return Ok(None);
+    };
+    let experiment = confined(&dir.join("experiment.toml"), repository)?;
+    let cells_table = confined(&dir.join("cells.csv"), repository)?;
+    let plan = read_plan(&OutputDir::new(plan_file.parent().unwrap_or(&dir)))?;
     let axes = plan
         .axes
         .iter()
@@ -104,18 +121,16 @@ fn study(root: &Path, folder: &str) -> Result<Option<Study>> {
             format!("{a} ({} values)", values.len())
         })
         .collect();
-    let done = volphot::read_text_capped(
-        &dir.join("cells.csv"),
-        volphot::TEXT_INPUT_CAP,
-        "cells table",
-    )
-    .map(|t| t.lines().filter(|l| l.contains(",done,")).count())
-    .unwrap_or(0);
+    let done = cells_table
+        .and_then(|file| {
+            volphot::read_text_capped(&file, volphot::TEXT_INPUT_CAP, "cells table").ok()
+        })
+        .map_or(0, |t| t.lines().filter(|l| l.contains(",done,")).count());
     Ok(Some(Study {
         folder: folder.to_string(),
         name: plan.experiment.clone(),
         quality: plan.quality.clone(),
-        description: description(&dir),
+        description: description(experiment.as_deref()),
         axes,
         cells: plan.cells.len(),
         done,
@@ -283,31 +298,34 @@ fn ordered<'a>(studies: &'a [Study], paper: &paper::Paper) -> Vec<(&'a Study, Op
 
 /// Writes `root/index.html` for every study folder below `root` (and the paper's page). A
 /// folder whose records cannot be read is skipped and named, never the whole index lost.
+/// Every file read stays inside the repository that holds `root` (or `root` itself outside
+/// a repository): a paper that links out of it is refused, a study that does is skipped.
 pub(crate) fn write_index(root: &Path) -> Result<Index> {
+    let repository = crate::confine::repository_of(root)
+        .with_context(|| format!("reading {}", root.display()))?;
     let mut folders: Vec<String> = std::fs::read_dir(root)
         .with_context(|| format!("reading {}", root.display()))?
         .flatten()
         .filter(|e| e.path().is_dir())
         .map(|e| e.file_name().to_string_lossy().into_owned())
+        // Hidden folders (`.git`, caches) are not studies.
+        .filter(|name| !name.starts_with('.'))
         .collect();
     folders.sort();
     let mut studies = Vec::new();
     let mut skipped = Vec::new();
     for f in &folders {
-        match study(root, f) {
+        match study(root, &repository, f) {
             Ok(Some(s)) => studies.push(s),
             Ok(None) => {}
             Err(e) => skipped.push((f.clone(), format!("{e:#}"))),
         }
     }
-    let markdown = match root.join("REPRODUCTION.md") {
-        p if p.exists() => Some(volphot::read_text_capped(
-            &p,
-            volphot::TEXT_INPUT_CAP,
-            "Markdown document",
-        )?),
-        _ => None,
-    };
+    let markdown = confined(&root.join("REPRODUCTION.md"), &repository)?
+        .map(|paper| {
+            volphot::read_text_capped(&paper, volphot::TEXT_INPUT_CAP, "Markdown document")
+        })
+        .transpose()?;
     let paper_page = paper::write_page(root, markdown.as_deref())?;
     let paper = markdown.as_deref().map(paper::parse).unwrap_or_default();
     let mut body = String::from("<h1>volphot: the studies</h1>");
@@ -511,5 +529,54 @@ mod tests {
         assert_eq!(index.skipped[0].0, "bad");
         let html = std::fs::read_to_string(index.path).unwrap();
         assert!(html.contains("./good/"), "{html}");
+    }
+
+    /// Row 4 of the fifth reliability round: a `REPRODUCTION.md` or a study's
+    /// `experiment.toml` that links to a file outside the repository had that file's text
+    /// rendered into the pages.
+    #[test]
+    fn files_that_link_out_of_the_repository_are_not_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let secret = dir.path().join("secret.txt");
+        std::fs::write(
+            &secret,
+            "# SECRET-PAPER\n\ndescription = \"SECRET-DESCRIPTION\"\n",
+        )
+        .unwrap();
+        let reports = dir.path().join("reports");
+        for name in ["good", "linked"] {
+            std::fs::create_dir_all(reports.join(name)).unwrap();
+            std::fs::write(reports.join(name).join("plan.json"), PLAN).unwrap();
+        }
+        std::os::unix::fs::symlink(&secret, reports.join("linked/experiment.toml")).unwrap();
+        // Without a paper: the study that links out is skipped and named.
+        let index = write_index(&reports).unwrap();
+        assert_eq!(index.skipped.len(), 1, "{:?}", index.skipped);
+        assert_eq!(index.skipped[0].0, "linked");
+        assert!(
+            index.skipped[0].1.contains("leads outside"),
+            "{:?}",
+            index.skipped
+        );
+        let html = std::fs::read_to_string(&index.path).unwrap();
+        assert!(
+            !html.contains("SECRET") && html.contains("./good/"),
+            "{html}"
+        );
+        // A paper that links out is refused, and nothing of it is written.
+        std::os::unix::fs::symlink(&secret, reports.join("REPRODUCTION.md")).unwrap();
+        let error = format!("{:#}", write_index(&reports).err().expect("refused"));
+        assert!(
+            error.contains("REPRODUCTION.md") && error.contains("leads outside"),
+            "{error}"
+        );
+        assert!(!reports.join("REPRODUCTION.html").exists());
+        // Inside the repository a link is followed.
+        std::fs::remove_file(reports.join("REPRODUCTION.md")).unwrap();
+        std::fs::write(reports.join("paper.md"), "# INSIDE-PAPER\n").unwrap();
+        std::os::unix::fs::symlink("paper.md", reports.join("REPRODUCTION.md")).unwrap();
+        write_index(&reports).unwrap();
+        let page = std::fs::read_to_string(reports.join("REPRODUCTION.html")).unwrap();
+        assert!(page.contains("INSIDE-PAPER"), "{page}");
     }
 }

@@ -174,21 +174,15 @@ pub(crate) fn parse(markdown: &str) -> Paper {
     }
 }
 
-/// `REPRODUCTION.md` as a page beside it (CommonMark with tables; the claims' comments are
-/// dropped, raw HTML is shown as text and only relative and http(s) links stay), so the
+/// `REPRODUCTION.md` as a page beside it, through the pages' one sanitiser
+/// ([`escape::page_html`]: GitHub's tables and footnotes, the claims' comments dropped, raw
+/// HTML shown as text, only relative and http(s) links, no attribute from the text), so the
 /// paper reads in a browser from a clone; `None` without the paper.
 pub(crate) fn write_page(root: &Path, markdown: Option<&str>) -> Result<Option<PathBuf>> {
     let Some(markdown) = markdown else {
         return Ok(None);
     };
-    let options = pulldown_cmark::Options::ENABLE_TABLES
-        | pulldown_cmark::Options::ENABLE_HEADING_ATTRIBUTES
-        | pulldown_cmark::Options::ENABLE_FOOTNOTES;
-    let mut body = String::new();
-    pulldown_cmark::html::push_html(
-        &mut body,
-        escape::safe_events(pulldown_cmark::Parser::new_ext(markdown, options)).into_iter(),
-    );
+    let body = escape::page_html(markdown);
     let html = format!(
         "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>volphot: reproducing the 2006 study</title><style>{PAPER_STYLE}</style></head><body>\n<p><a href=\"./index.html\">← all studies</a></p>\n{body}</body></html>\n"
     );
@@ -217,5 +211,19 @@ mod tests {
         assert_eq!(p.verdict("C1"), Some("reproduced in trend"));
         assert_eq!(p.entry_of("artifacts").map(|(i, _)| i), Some(0));
         assert!(p.answer.unwrap().starts_with("So the measurements support"));
+    }
+
+    /// Row 3 of the fifth reliability round: `## Details {tabindex=0 autofocus onfocus=…}`
+    /// in the paper put a live handler on its page, run on load.
+    #[test]
+    fn heading_attributes_never_reach_the_paper_page() {
+        let dir = tempfile::tempdir().unwrap();
+        let markdown = "# Paper\n\n## Details {tabindex=0 autofocus onfocus=alert(1)}\n\n## Cover {#explorer .x style=\"position:fixed;inset:0\" onclick=alert(2)}\n";
+        let path = write_page(dir.path(), Some(markdown)).unwrap().unwrap();
+        let html = std::fs::read_to_string(path).unwrap();
+        let body = html.split("<body>").nth(1).unwrap();
+        // No heading carries an attribute: the braces stay text, as a code host shows them.
+        assert!(!body.contains("<h2 ") && !body.contains("<h1 "), "{body}");
+        assert!(body.contains("<h2>Details {tabindex=0"), "{body}");
     }
 }
