@@ -10,7 +10,8 @@ use toml::{Table, Value};
 
 use super::axes::Dimension;
 use super::file::{
-    CompareKind, CompareSpec, ExperimentFile, PlotSpec, QualityPreset, ReferenceSpec, SheetSpec,
+    CompareKind, CompareSpec, ExperimentFile, PairSpec, PlotSpec, QualityPreset, ReferenceSpec,
+    SheetSpec,
 };
 use super::keys::{flatten_axes, flatten_set, scene_key};
 use super::source::Source;
@@ -146,6 +147,29 @@ pub(crate) fn compare(
                 }
             }
         }
+    }
+    Ok(())
+}
+
+/// `[report] pair`: each side names axes, at least one, and the two sides differ.
+pub(crate) fn pair(axes: &AxisNames<'_>, pair: Option<&PairSpec>) -> Result<()> {
+    let Some(pair) = pair else {
+        return Ok(());
+    };
+    for (side, table) in [("a", &pair.a), ("b", &pair.b)] {
+        if table.is_empty() {
+            return Err(axes.source.error(
+                "pair",
+                format!("report.pair.{side} is empty: expected the axis values of the setting the study compares, e.g. {{ \"integrator.multiple\" = false }}"),
+            ));
+        }
+        axes.require(&format!("report.pair.{side}"), 0, table.keys())?;
+    }
+    if pair.a == pair.b {
+        return Err(axes.source.error(
+            "pair",
+            "report.pair.a and report.pair.b are the same setting: expected the two sides of the study's comparison",
+        ));
     }
     Ok(())
 }

@@ -45,7 +45,7 @@ pub(crate) struct ExperimentFile {
 }
 
 /// `[report]`: how the report is written.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct ReportSpec {
     /// The explorer's pixel data at most this many pixels on the long side: larger images
@@ -54,6 +54,21 @@ pub(crate) struct ReportSpec {
     /// unset, the data are at the full resolution.
     #[serde(default)]
     pub(crate) explorer_max_side: Option<usize>,
+    /// The comparison the study was made for; the explorer opens on it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) pair: Option<PairSpec>,
+}
+
+/// `[report] pair = { a = { … }, b = { … } }`: the two settings a study compares, each a
+/// set of axis values (a list: any of them). The explorer opens on the first finished cell
+/// of `a` against the cell of `b` that agrees with it on every axis neither side names.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct PairSpec {
+    /// The first setting (the explorer's A).
+    pub(crate) a: Table,
+    /// The second (B).
+    pub(crate) b: Table,
 }
 
 fn default_max_cells() -> usize {

@@ -64,7 +64,8 @@ use file::{ExperimentFile, QualityPreset};
 
 pub(crate) use cells::CellSpec;
 pub(crate) use file::{
-    CompareKind, CompareSpec, PlotSpec, ReferenceMethod, ReferenceSpec, ReportSpec, SheetLayer,
+    CompareKind, CompareSpec, PairSpec, PlotSpec, ReferenceMethod, ReferenceSpec, ReportSpec,
+    SheetLayer,
     SheetSpec,
 };
 pub(crate) use keys::{flatten_set, flatten_space, short_key, toml_to_json, value_text};
@@ -198,6 +199,7 @@ impl Experiment {
         checks::reference(&source, file.reference.as_ref())?;
         checks::compare(&axis_names, &file.compare, file.reference.is_some())?;
         checks::figures(&axis_names, &file.plots, &file.sheets)?;
+        checks::pair(&axis_names, file.report.pair.as_ref())?;
         if file.report.explorer_max_side == Some(0) {
             return Err(source.error(
                 "report.explorer_max_side",

@@ -115,7 +115,8 @@ pub(crate) fn refuse_to_lose_recorded_cells(out: &OutputDir) -> Result<()> {
     )
 }
 
-/// The axis a study is about, for the explorer's first pair: the columns of its first
+/// The axis a study is about, for the explorer's first pair where it names none
+/// (`[report] pair`): the columns of its first
 /// contact sheet, else the series or the x axis of its first plot, else its first axis —
 /// never a seed (two seeds of one setting look alike).
 fn study_axis(experiment: &Experiment, plan: &crate::store::PlanRecord) -> Option<String> {
@@ -165,12 +166,18 @@ pub(crate) fn build_report(out: &OutputDir) -> Result<PathBuf> {
     }
     .markdown();
     volphot::write_atomic(&out.root().join("report.md"), markdown.as_bytes())?;
+    let axis = study_axis(&experiment, &plan);
+    let opening = match (&experiment.report.pair, &axis) {
+        (Some(pair), _) => Some(explorer::Opening::Named(pair)),
+        (None, Some(axis)) => Some(explorer::Opening::Axis(axis)),
+        (None, None) => None,
+    };
     let explorer = explorer::Explorer::build(
         out,
         &plan,
         &cells,
         experiment.report.explorer_max_side,
-        study_axis(&experiment, &plan).as_deref(),
+        opening,
     )?;
     let html = html::html(out.root(), &markdown, &explorer, &figures)?;
     let path = out.root().join("report.html");

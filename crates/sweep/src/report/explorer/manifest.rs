@@ -4,8 +4,10 @@
 
 use serde::Serialize;
 
+use super::Opening;
 use super::data::DataIndex;
-use crate::report::collect::{Collected, axis_value, distinct_values, value_label};
+use crate::plan::PairSpec;
+use crate::report::collect::{Collected, axis_value, distinct_values, matches, value_label};
 use crate::store::PlanRecord;
 
 /// Version of the manifest's shape, for the page.
@@ -99,13 +101,42 @@ fn start_pair(
         .map(|b| [a, b])
 }
 
+/// The pair a study names: its first finished cell of `pair.a`, and the finished cell of
+/// `pair.b` that agrees with it on the most axes neither side names (all of them in a full
+/// grid; axes zipped with a named one move with it, so they may differ).
+fn named_pair(
+    plan: &PlanRecord,
+    cells: &[Collected],
+    data: &DataIndex,
+    pair: &PairSpec,
+) -> Option<[usize; 2]> {
+    let done = || (0..cells.len()).filter(|i| data.cells.contains_key(i));
+    let a = done().find(|&i| matches(&cells[i].planned, &pair.a))?;
+    let free: Vec<&String> = plan
+        .axes
+        .iter()
+        .filter(|k| !pair.a.contains_key(k.as_str()) && !pair.b.contains_key(k.as_str()))
+        .collect();
+    let agreement = |b: usize| {
+        free.iter()
+            .filter(|k| axis_value(&cells[a].planned, k) == axis_value(&cells[b].planned, k))
+            .count()
+    };
+    // The first of the best: `max_by_key` keeps the last of equals, so walk backwards.
+    let candidates: Vec<usize> = done()
+        .filter(|&b| b != a && matches(&cells[b].planned, &pair.b))
+        .collect();
+    let b = candidates.into_iter().rev().max_by_key(|&b| agreement(b))?;
+    Some([a, b])
+}
+
 impl Manifest {
     /// The manifest of the collected cells and their data files.
     pub(super) fn new(
         plan: &PlanRecord,
         cells: &[Collected],
         data: &DataIndex,
-        study_axis: Option<&str>,
+        opening: Option<Opening<'_>>,
     ) -> Self {
         let axes: Vec<(String, Vec<serde_json::Value>)> = plan
             .axes
@@ -113,7 +144,11 @@ impl Manifest {
             .map(|key| (key.clone(), distinct_values(cells, key)))
             .collect();
         let references: Vec<&String> = data.references.keys().collect();
-        let start = study_axis.and_then(|axis| start_pair(plan, cells, data, axis));
+        let start = match opening {
+            Some(Opening::Named(pair)) => named_pair(plan, cells, data, pair),
+            Some(Opening::Axis(axis)) => start_pair(plan, cells, data, axis),
+            None => None,
+        };
         let entries = cells
             .iter()
             .enumerate()

@@ -16,7 +16,17 @@ mod pack;
 use anyhow::Result;
 
 use super::collect::Collected;
+use crate::plan::PairSpec;
 use crate::store::{OutputDir, PlanRecord};
+
+/// The two cells the explorer opens on.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Opening<'a> {
+    /// The pair the study names (`[report] pair`).
+    Named(&'a PairSpec),
+    /// A study that names none: the ends of the axis it is about.
+    Axis(&'a str),
+}
 
 const MARKUP: &str = include_str!("explorer.html");
 const STYLE: &str = include_str!("explorer.css");
@@ -31,16 +41,16 @@ impl Explorer {
     /// Writes the data files that are missing or out of date (see [`data`]) and prepares
     /// the page's manifest.
     /// `max_side` bounds the pixel data's long side (`[report] explorer_max_side`); the page
-    /// opens on the ends of `study_axis` (see [`crate::report`]'s choice of it).
+    /// opens on `opening` (else on its first two finished cells).
     pub(crate) fn build(
         out: &OutputDir,
         plan: &PlanRecord,
         cells: &[Collected],
         max_side: Option<usize>,
-        study_axis: Option<&str>,
+        opening: Option<Opening<'_>>,
     ) -> Result<Self> {
         let index = data::write_data(out, cells, max_side)?;
-        let manifest = manifest::Manifest::new(plan, cells, &index, study_axis).to_script_json()?;
+        let manifest = manifest::Manifest::new(plan, cells, &index, opening).to_script_json()?;
         Ok(Explorer { manifest })
     }
 
