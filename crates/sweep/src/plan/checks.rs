@@ -34,6 +34,12 @@ impl<'a> AxisNames<'a> {
         }
     }
 
+    /// These axes and `extra` (a tune's searched and fidelity keys).
+    pub(crate) fn with(mut self, extra: &'a [String]) -> Self {
+        self.names.extend(extra.iter().map(String::as_str));
+        self
+    }
+
     /// Every key in `keys` must be an axis; the error names block `table[index]`.
     pub(crate) fn require<'k>(
         &self,

@@ -199,7 +199,6 @@ impl Experiment {
         checks::reference(&source, file.reference.as_ref())?;
         checks::compare(&axis_names, &file.compare, file.reference.is_some())?;
         checks::figures(&axis_names, &file.plots, &file.sheets)?;
-        checks::pair(&axis_names, file.report.pair.as_ref())?;
         if file.report.explorer_max_side == Some(0) {
             return Err(source.error(
                 "report.explorer_max_side",
@@ -211,6 +210,8 @@ impl Experiment {
             .as_ref()
             .map(|t| TuneSpec::from_file(&source, t))
             .transpose()?;
+        let tuned = tune.as_ref().map(TuneSpec::axis_keys).unwrap_or_default();
+        checks::pair(&axis_names.with(&tuned), file.report.pair.as_ref())?;
         if tune.is_some() && file.reference.is_none() {
             return Err(source.error(
                 "tune",
