@@ -776,3 +776,78 @@ fn environments_too_bright_for_32_bit_sums_are_refused_as_they_load() {
     );
     environment(d, "warm.pfm", "scale = 10\n").unwrap();
 }
+
+/// Every file a scene names — environment map, volume, PGM and colour transfer
+/// functions, a DICOM folder, a NRRD's detached data — is read only if no symbolic link
+/// leads it out of the folder its name places it in. A path written out (`../x`, an
+/// absolute path) is read where it says; a link that stays inside is followed.
+#[test]
+fn files_a_scene_names_are_confined_to_its_folder() {
+    let outside = tempfile::tempdir().unwrap();
+    let o = outside.path();
+    let map = |name: &str| {
+        let mut bytes = b"Pf\n2 1\n-1\n".to_vec();
+        bytes.extend([1.0f32, 2.0].iter().flat_map(|v| v.to_le_bytes()));
+        write(o, name, &bytes)
+    };
+    map("sky.pfm");
+    write(o, "v.raw", &[7u8; 8]);
+    write(o, "tf.pgm", b"P2\n2 2\n255\n0 255\n0 255\n");
+    write(o, "v.nrrd.raw", &[7u8; 8]);
+    std::fs::create_dir(o.join("ct")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let link =
+        |target: &Path, name: &str| std::os::unix::fs::symlink(target, d.join(name)).unwrap();
+    link(&o.join("sky.pfm"), "sky.pfm");
+    link(&o.join("v.raw"), "v.raw");
+    link(&o.join("tf.pgm"), "tf.pgm");
+    link(&o.join("ct"), "ct");
+    link(o, "elsewhere");
+    link(&o.join("v.nrrd.raw"), "v.nrrd.raw");
+    write(
+        d,
+        "v.nrrd",
+        b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\ndata file: v.nrrd.raw\n\n",
+    );
+    let volume = "[volume]\nfile = \"v.raw\"\ndims = [2, 2, 2]\nvoxel = \"u8\"\n[three_point]\n";
+    let cases = [
+        (
+            "sky.pfm",
+            scene(
+                d,
+                &format!("{SCENE}[[lights]]\ntype = \"environment\"\nfile = \"sky.pfm\"\n"),
+            ),
+        ),
+        ("elsewhere/sky.pfm", environment(d, "elsewhere/sky.pfm", "")),
+        ("v.raw", scene(d, volume)),
+        (
+            "tf.pgm",
+            scene(
+                d,
+                &format!("{SCENE}[transfer]\nkind = \"pgm\"\nfile = \"tf.pgm\"\n"),
+            ),
+        ),
+        ("ct", scene(d, "[volume]\ndicom = \"ct\"\n[three_point]\n")),
+        (
+            "v.nrrd.raw",
+            scene(d, "[volume]\nfile = \"v.nrrd\"\n[three_point]\n"),
+        ),
+    ];
+    for (name, result) in cases {
+        let e = result.expect_err(name);
+        assert!(
+            e.contains(name) && e.contains("leads out of") && e.contains("symbolic link"),
+            "{name}: {e}"
+        );
+    }
+    // Written out, the same files are read; a link inside the folder is followed.
+    let outside_map = o.join("sky.pfm").display().to_string();
+    environment(d, &outside_map, "").unwrap();
+    let sub = d.join("maps");
+    std::fs::create_dir(&sub).unwrap();
+    std::fs::copy(o.join("sky.pfm"), sub.join("real.pfm")).unwrap();
+    std::os::unix::fs::symlink("maps/real.pfm", d.join("inside.pfm")).unwrap();
+    environment(d, "inside.pfm", "").unwrap();
+    environment(&sub, "../inside.pfm", "").unwrap();
+}

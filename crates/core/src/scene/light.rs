@@ -598,10 +598,10 @@ fn environment_light(params: &LightParams, context: LightContext<'_>) -> Result<
         let file = params.file.as_ref().ok_or_else(|| {
             Error::parameter("file", "(missing)", "an HDR map: .exr, .pfm or .hdr")
         })?;
-        let path = context.base.join(file);
-        // The map's own error (missing, not HDR, a bad texel) under the key that named it,
-        // so the scene file's line is reported too.
-        let map = EnvironmentMap::load(&path)
+        // The map's own error (missing, not HDR, a bad texel, a link out of the scene's
+        // folder) under the key that named it, so the scene file's line is reported too.
+        let map = crate::util::confined(context.base, file, "the scene's folder")
+            .and_then(|path| EnvironmentMap::load(&path))
             .map_err(|e| Error::parameter("file", file.display(), e.to_string()))?;
         (EnvironmentSource::File(file.clone()), map)
     } else {
