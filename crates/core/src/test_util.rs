@@ -1,6 +1,6 @@
 //! Fixtures shared by the test suites of every crate in the workspace (feature
-//! `test-util`): small phantom scenes, the dataset search path as tests see it, and how a
-//! test that cannot run here says so.
+//! `test-util`): small phantom scenes, the dataset search path as tests see it, how a
+//! test that cannot run here says so, and an allocation probe for parser tests.
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -122,5 +122,6 @@ pub fn relative_rmse(a: &[glam::Vec3], b: &[glam::Vec3]) -> f64 {
     mse.sqrt() / crate::mean_rgb(b)
 }
 
+pub mod alloc;
 pub mod dicom;
 pub mod nifti;

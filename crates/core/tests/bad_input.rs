@@ -581,3 +581,273 @@ fn validate_params_and_locate_agree_on_keys() {
         "{located}"
     );
 }
+
+// --- Environment maps and the files a scene names -----------------------------------------
+
+#[global_allocator]
+static PROBE: volphot::test_util::alloc::Probe = volphot::test_util::alloc::Probe;
+
+use volphot::test_util::alloc::{largest_allocation, reset_largest};
+
+/// Loads a scene in `dir` lit by the environment map `file` (with `extra` keys in its
+/// light table); returns the located error.
+fn environment(dir: &Path, file: &str, extra: &str) -> Result<(), String> {
+    scene(
+        dir,
+        &format!("{SCENE}[[lights]]\ntype = \"environment\"\nfile = \"{file}\"\n{extra}"),
+    )
+}
+
+/// A file of `length` bytes (sparse: only `head` is written) in `dir`.
+fn sparse(dir: &Path, name: &str, head: &[u8], length: u64) -> PathBuf {
+    let path = write(dir, name, head);
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&path)
+        .unwrap()
+        .set_len(length)
+        .unwrap();
+    path
+}
+
+/// A PFM header whose width times 4 wraps to 0 in 64 bits: `width · 4` passed the size
+/// check against an empty file and `vec!` panicked with "capacity overflow" — for the
+/// environment map, and for the PFM the peer's Python returns (`read_pfm`).
+#[test]
+fn a_pfm_whose_size_wraps_64_bits_is_refused() {
+    for kind in ["Pf", "PF"] {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(
+            dir.path(),
+            "wrap.pfm",
+            format!("{kind}\n4611686018427387904 1\n-1.0\n").as_bytes(),
+        );
+        let e = environment(dir.path(), "wrap.pfm", "").unwrap_err();
+        assert!(
+            e.contains("wrap.pfm") && e.contains("4611686018427387904×1") && e.contains("0 bytes"),
+            "{kind}: {e}"
+        );
+        let e = volphot::read_pfm(&path).unwrap_err().to_string();
+        assert!(e.contains("wrap.pfm"), "{kind}: {e}");
+    }
+}
+
+/// Maps larger than the stated bound (2^27 texels, and half the available memory) are
+/// refused from their header before a texel is allocated; a file longer than its header's
+/// size can take is refused by its length before it is read.
+#[test]
+fn maps_beyond_the_memory_bound_are_refused_from_their_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let header = b"PF\n16384 16384\n-1\n";
+    sparse(
+        d,
+        "huge.pfm",
+        header,
+        header.len() as u64 + 16384 * 16384 * 12,
+    );
+    // A Radiance header declaring 16384 × 16384, then run-length encoded scan lines that
+    // would fill it from 17 MB (only the first is written: the header is what counts).
+    let mut hdr = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 16384 +X 16384\n".to_vec();
+    hdr.extend([2, 2, 64, 0]);
+    for _ in 0..4 {
+        for _ in 0..129 {
+            hdr.extend([128 + 127, 1]);
+        }
+    }
+    write(d, "huge.hdr", &hdr);
+    let small = b"PF\n8 4\n-1\n";
+    sparse(d, "tail.pfm", small, 3 << 30);
+    let mut small_hdr = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 8\n".to_vec();
+    small_hdr.extend([0u8; 128]);
+    sparse(d, "tail.hdr", &small_hdr, 3 << 30);
+    let exr = d.join("small.exr");
+    exr::prelude::write_rgb_file(&exr, 8, 4, |_, _| (1.0f32, 1.0f32, 1.0f32)).unwrap();
+    sparse(d, "tail.exr", &std::fs::read(&exr).unwrap(), 3 << 30);
+    for (file, expected) in [
+        ("huge.pfm", "16384×16384 texels"),
+        ("huge.hdr", "16384×16384 texels"),
+        ("tail.pfm", "3221225462 bytes of pixels, expected 384"),
+        ("tail.hdr", "3221225472 bytes is more than a 8×4 map"),
+        ("tail.exr", "3221225472 bytes is more than a 8×4 map"),
+    ] {
+        reset_largest();
+        let start = std::time::Instant::now();
+        let e = environment(d, file, "").unwrap_err();
+        assert!(e.contains(file) && e.contains(expected), "{file}: {e}");
+        assert!(
+            largest_allocation() < 16 << 20,
+            "{file}: {} bytes allocated at once",
+            largest_allocation()
+        );
+        // Reading 3 GiB of a sparse file takes seconds; the header alone, milliseconds.
+        assert!(
+            start.elapsed().as_secs_f32() < 1.0,
+            "{file}: {:?}",
+            start.elapsed()
+        );
+    }
+    let e = environment(d, "huge.pfm", "").unwrap_err();
+    assert!(e.contains("134217728 (16384 × 8192)"), "{e}");
+}
+
+/// A map that is not one — a token file, a key, terminal control sequences, or a link to
+/// such a file — is refused without quoting it: at most a few escaped bytes of its start.
+#[test]
+fn a_map_that_is_not_one_is_refused_without_quoting_it() {
+    let secrets: [&[u8]; 4] = [
+        // Words of at most 32 bytes, which the PFM reader quoted whole.
+        b"ghp_16C7e42F292c6912E7710c83 8347Ae178B4a 1\n",
+        b"AKIAIOSFODNN7EXAMPLE wJalrXUtnFEMI/K7MDENG 1\n",
+        b"\x1b]0;pwned\x07\x1b[2J\x1b[31mred 4 4\n-1\n",
+        // A Radiance header whose FORMAT the image crate quoted (20 bytes).
+        b"#?RADIANCE\nFORMAT=ghp_16C7e42F292c6912E7710c83\n\n-Y 1 +X 1\n",
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (i, secret) in secrets.iter().enumerate() {
+        write(d, &format!("secret{i}.txt"), secret);
+        for ext in ["pfm", "hdr", "exr"] {
+            let file = format!("sky{i}.{ext}");
+            write(d, &file, secret);
+            let link = format!("link{i}.{ext}");
+            std::os::unix::fs::symlink(format!("secret{i}.txt"), d.join(&link)).unwrap();
+            for name in [&file, &link] {
+                let e = environment(d, name, "").unwrap_err();
+                assert!(e.contains(name.as_str()), "{name}: {e}");
+                for quoted in ["16C7e42F", "IOSFODNN", "wJalrX", "pwned", "red"] {
+                    assert!(!e.contains(quoted), "{name} quotes `{quoted}`: {e}");
+                }
+                assert!(
+                    !e.contains('\x1b') && !e.contains('\x07'),
+                    "{name}: raw control bytes in {e:?}"
+                );
+            }
+        }
+    }
+}
+
+/// An environment beyond the radiance every light keeps to (1e20 W/m²/sr) is refused as
+/// the scene loads, naming the key or the file: a sky's `scale = 1e38`, a PFM whose header
+/// scale is −1e38, texels at 3e38 (with `scale = 4`, which the Mitsuba export turned into
+/// 48 infinite texels). These were accepted and ended a whole render in infinities.
+#[test]
+fn environments_too_bright_for_32_bit_sums_are_refused_as_they_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let e = scene(
+        d,
+        &format!("{SCENE}[[lights]]\ntype = \"sky\"\nscale = 1e38\n"),
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("scene.toml:6") && e.contains("`lights[0].scale`") && e.contains("1e20"),
+        "{e}"
+    );
+    let pfm = |header_scale: &str, texel: f32| {
+        let mut bytes = format!("Pf\n2 2\n{header_scale}\n").into_bytes();
+        for v in [1.0, 2.0, texel, 0.5f32] {
+            bytes.extend(v.to_le_bytes());
+        }
+        bytes
+    };
+    write(d, "loud.pfm", &pfm("-1e38", 1.0));
+    let e = environment(d, "loud.pfm", "").unwrap_err();
+    assert!(
+        e.contains("loud.pfm")
+            && e.contains("header's scale 100000000000000000000000000000000000000")
+            && e.contains("1e20"),
+        "{e}"
+    );
+    write(d, "hot.pfm", &pfm("-1", 3e38));
+    let e = environment(d, "hot.pfm", "scale = 4\n").unwrap_err();
+    assert!(
+        e.contains("hot.pfm")
+            && e.contains("(column 0, row 0) = (300000000000000000000000000000000000000")
+            && e.contains("1e20"),
+        "{e}"
+    );
+    // Within the bound each texel is, the scale still may not carry it past it.
+    write(d, "warm.pfm", &pfm("-1", 1e19));
+    let e = environment(d, "warm.pfm", "scale = 100\n").unwrap_err();
+    assert!(
+        e.contains("`lights[0].scale`") && e.contains("brightest texel"),
+        "{e}"
+    );
+    environment(d, "warm.pfm", "scale = 10\n").unwrap();
+}
+
+/// Every file a scene names — environment map, volume, PGM and colour transfer
+/// functions, a DICOM folder, a NRRD's detached data — is read only if no symbolic link
+/// leads it out of the folder its name places it in. A path written out (`../x`, an
+/// absolute path) is read where it says; a link that stays inside is followed.
+#[test]
+fn files_a_scene_names_are_confined_to_its_folder() {
+    let outside = tempfile::tempdir().unwrap();
+    let o = outside.path();
+    let map = |name: &str| {
+        let mut bytes = b"Pf\n2 1\n-1\n".to_vec();
+        bytes.extend([1.0f32, 2.0].iter().flat_map(|v| v.to_le_bytes()));
+        write(o, name, &bytes)
+    };
+    map("sky.pfm");
+    write(o, "v.raw", &[7u8; 8]);
+    write(o, "tf.pgm", b"P2\n2 2\n255\n0 255\n0 255\n");
+    write(o, "v.nrrd.raw", &[7u8; 8]);
+    std::fs::create_dir(o.join("ct")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let link =
+        |target: &Path, name: &str| std::os::unix::fs::symlink(target, d.join(name)).unwrap();
+    link(&o.join("sky.pfm"), "sky.pfm");
+    link(&o.join("v.raw"), "v.raw");
+    link(&o.join("tf.pgm"), "tf.pgm");
+    link(&o.join("ct"), "ct");
+    link(o, "elsewhere");
+    link(&o.join("v.nrrd.raw"), "v.nrrd.raw");
+    write(
+        d,
+        "v.nrrd",
+        b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\ndata file: v.nrrd.raw\n\n",
+    );
+    let volume = "[volume]\nfile = \"v.raw\"\ndims = [2, 2, 2]\nvoxel = \"u8\"\n[three_point]\n";
+    let cases = [
+        (
+            "sky.pfm",
+            scene(
+                d,
+                &format!("{SCENE}[[lights]]\ntype = \"environment\"\nfile = \"sky.pfm\"\n"),
+            ),
+        ),
+        ("elsewhere/sky.pfm", environment(d, "elsewhere/sky.pfm", "")),
+        ("v.raw", scene(d, volume)),
+        (
+            "tf.pgm",
+            scene(
+                d,
+                &format!("{SCENE}[transfer]\nkind = \"pgm\"\nfile = \"tf.pgm\"\n"),
+            ),
+        ),
+        ("ct", scene(d, "[volume]\ndicom = \"ct\"\n[three_point]\n")),
+        (
+            "v.nrrd.raw",
+            scene(d, "[volume]\nfile = \"v.nrrd\"\n[three_point]\n"),
+        ),
+    ];
+    for (name, result) in cases {
+        let e = result.expect_err(name);
+        assert!(
+            e.contains(name) && e.contains("leads out of") && e.contains("symbolic link"),
+            "{name}: {e}"
+        );
+    }
+    // Written out, the same files are read; a link inside the folder is followed.
+    let outside_map = o.join("sky.pfm").display().to_string();
+    environment(d, &outside_map, "").unwrap();
+    let sub = d.join("maps");
+    std::fs::create_dir(&sub).unwrap();
+    std::fs::copy(o.join("sky.pfm"), sub.join("real.pfm")).unwrap();
+    std::os::unix::fs::symlink("maps/real.pfm", d.join("inside.pfm")).unwrap();
+    environment(d, "inside.pfm", "").unwrap();
+    environment(&sub, "../inside.pfm", "").unwrap();
+}

@@ -182,6 +182,37 @@ fn bad_clips_are_named_in_the_scene_file() {
     }
 }
 
+/// Planes that keep a region of zero thickness (`x ≥ 0.5` and `x ≤ 0.5`), or one thinner
+/// than a 32-bit float's step, keep nothing a ray resolves: an error naming the planes and
+/// the thickness, as the docs promise for planes that keep nothing — not a black image.
+#[test]
+fn planes_that_keep_a_slab_of_no_thickness_are_refused() {
+    let load = |clip: &str| {
+        let text = format!(
+            "[volume]\nphantom = {{ name = \"constant\", resolution = [8, 8, 8] }}\n[three_point]\n[clip]\n{clip}\n"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("slab.toml");
+        std::fs::write(&path, &text).unwrap();
+        volphot::Scene::load(&path, &volphot::SearchPath::new(vec![])).map(|_| ())
+    };
+    for clip in [
+        "plane = { normal = [1, 0, 0], offset = 0.5 }\nplanes = [{ normal = [-1, 0, 0], offset = -0.5 }]",
+        "plane = { normal = [1, 0, 0], offset = 0.5 }\nplanes = [{ normal = [-1, 0, 0], offset = -0.5000001 }]",
+        "plane = { normal = [1, 1, 0], offset = 1 }\nplanes = [{ normal = [-1, -1, 0], offset = -1 }]",
+        "box = { p0 = [0, 0, 0.5], p1 = [1, 1, 0.5000001] }",
+    ] {
+        let err = load(clip).expect_err(clip).to_string();
+        assert!(
+            err.contains("slab.toml") && err.contains("thick") && err.contains("keep nothing"),
+            "{clip}: {err}"
+        );
+    }
+    // A thin slab that 32-bit floats still resolve (a thousandth of the box) is kept.
+    load("plane = { normal = [1, 0, 0], offset = 0.5 }\nplanes = [{ normal = [-1, 0, 0], offset = -0.501 }]")
+        .unwrap();
+}
+
 #[test]
 fn a_view_aligned_plane_keeps_the_far_side_of_the_look_at_point() {
     // The camera looks along +x at the centre: a view plane with normal [0, 0, 1] (forward)

@@ -1,9 +1,11 @@
 //! Property-based tests of every file parser of the core: RAW layouts, NRRD, MetaImage,
-//! NIfTI-1 headers, PGM transfer functions, scene TOML and DICOM folders (slices among
-//! links, FIFOs, sockets and nested folders). Generated inputs mix valid and invalid pieces
-//! of each format; for every case the parser must return within a time
-//! bound, must not panic, and a rejection must name its file (and, for scenes, the line and
-//! column or the key). Every run must see both accepted and rejected inputs, so a
+//! NIfTI-1 headers, PGM transfer functions, scene TOML, DICOM folders (slices among links,
+//! FIFOs, sockets and nested folders), environment maps (PFM, Radiance `.hdr` and OpenEXR
+//! headers and data), light tables and clip tables. Generated inputs mix valid and invalid
+//! pieces of each format; for every case the parser must return within a time bound, must
+//! not panic, must not ask for a gigabyte at once (an allocation probe measures each
+//! case's largest request), and a rejection must name its file (and, for scenes, the line
+//! and column or the key). Every run must see both accepted and rejected inputs, so a
 //! generator cannot drift to one side.
 //!
 //! CI runs a few thousand cases per parser; the long run (`cargo test --release -p
@@ -17,6 +19,7 @@ use std::time::Duration;
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
+use volphot::test_util::alloc::{largest_allocation, reset_largest};
 use volphot::test_util::dicom::{SliceSpec, write_slice};
 use volphot::test_util::nifti::Nifti1;
 use volphot::{
@@ -30,6 +33,14 @@ const LONG_CASES: u32 = 100_000;
 
 /// The most any one case may take.
 const BOUND: Duration = Duration::from_secs(20);
+
+/// The test binary's allocator notes each thread's largest request (and refuses 2 GiB).
+#[global_allocator]
+static PROBE: volphot::test_util::alloc::Probe = volphot::test_util::alloc::Probe;
+
+/// The most a case may allocate at once: a gigabyte asked for at once is an input read
+/// whole, or sized from a header, that should have been refused first.
+const ALLOCATION_LIMIT: usize = 1 << 30;
 
 /// What a parser did with one generated input.
 enum Verdict {
@@ -60,7 +71,7 @@ impl Tally {
         let (accepted, rejected) = (self.accepted.into_inner(), self.rejected.into_inner());
         let _ = writeln!(
             std::io::stderr().lock(),
-            "fuzz {name}: {cases} cases, {accepted} accepted, {rejected} rejected with a located error, 0 panics, 0 hangs"
+            "fuzz {name}: {cases} cases, {accepted} accepted, {rejected} rejected with a located error, 0 panics, 0 hangs, no allocation of 1 GiB"
         );
         assert!(
             accepted > 0,
@@ -74,8 +85,9 @@ impl Tally {
 }
 
 /// Runs `check` on each generated case in a thread of its own, failing a case that
-/// panics, hangs past [`BOUND`] or is rejected with an error that does not say where,
-/// and a run whose cases were all accepted or all rejected ([`Tally`]).
+/// panics, hangs past [`BOUND`], allocates [`ALLOCATION_LIMIT`] at once or is rejected
+/// with an error that does not say where, and a run whose cases were all accepted or all
+/// rejected ([`Tally`]).
 fn fuzz<S, F>(name: &str, cases: u32, strategy: S, check: F)
 where
     S: Strategy,
@@ -95,17 +107,21 @@ where
         let case_dir = dir.path().to_path_buf();
         let shown = format!("{input:?}");
         std::thread::spawn(move || {
+            reset_largest();
             let outcome =
                 std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| check(&case_dir, input)));
-            let _ = tx.send(outcome);
+            let _ = tx.send((outcome, largest_allocation()));
         });
         match rx.recv_timeout(BOUND) {
             Err(_) => Err(TestCaseError::fail(format!(
                 "no answer within {BOUND:?} (a hang) for {shown}"
             ))),
-            Ok(Err(_)) => Err(TestCaseError::fail(format!("panicked on {shown}"))),
-            Ok(Ok(Err(message))) => Err(TestCaseError::fail(message)),
-            Ok(Ok(Ok(verdict))) => {
+            Ok((_, largest)) if largest >= ALLOCATION_LIMIT => Err(TestCaseError::fail(format!(
+                "{largest} bytes allocated at once for {shown}"
+            ))),
+            Ok((Err(_), _)) => Err(TestCaseError::fail(format!("panicked on {shown}"))),
+            Ok((Ok(Err(message)), _)) => Err(TestCaseError::fail(message)),
+            Ok((Ok(Ok(verdict)), _)) => {
                 tally.count(&verdict);
                 Ok(())
             }
@@ -129,6 +145,19 @@ fn a_generator_of_only_rejected_inputs_fails_its_test() {
 #[should_panic(expected = "rejected none")]
 fn a_generator_of_only_accepted_inputs_fails_its_test() {
     fuzz("only_accepted", 8, Just(0u8), |_, _| Ok(Verdict::Accepted));
+}
+
+#[test]
+#[should_panic(expected = "allocated at once")]
+fn a_case_that_allocates_a_gigabyte_fails_its_test() {
+    fuzz("allocates", 1, Just(0u8), |_, _| {
+        let v: Vec<u8> = Vec::with_capacity(ALLOCATION_LIMIT);
+        Ok(if v.capacity() > 0 {
+            Verdict::Accepted
+        } else {
+            Verdict::Rejected
+        })
+    });
 }
 
 /// A rejection must name the file (or, for a bad parameter of the request, its key).
@@ -764,48 +793,6 @@ fn fuzz_scene_files_long() {
 
 // --- NIfTI-1 headers -----------------------------------------------------------------------
 
-/// Counts the largest single allocation of each thread, so a NIfTI case can show that no
-/// header, whatever it claims, makes the reader allocate 1 GB or more (the memory budget
-/// alone would allow several GB on this machine).
-struct TrackingAllocator;
-
-thread_local! {
-    static LARGEST_ALLOCATION: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
-}
-
-fn note_allocation(size: usize) {
-    // `try_with`: allocations during thread teardown find no thread-local, and are not ours.
-    let _ = LARGEST_ALLOCATION.try_with(|largest| largest.set(largest.get().max(size)));
-}
-
-// SAFETY: every call is passed on unchanged to the system allocator; only sizes are noted.
-unsafe impl std::alloc::GlobalAlloc for TrackingAllocator {
-    unsafe fn alloc(&self, layout: std::alloc::Layout) -> *mut u8 {
-        note_allocation(layout.size());
-        unsafe { std::alloc::System.alloc(layout) }
-    }
-
-    unsafe fn alloc_zeroed(&self, layout: std::alloc::Layout) -> *mut u8 {
-        note_allocation(layout.size());
-        unsafe { std::alloc::System.alloc_zeroed(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: std::alloc::Layout) {
-        unsafe { std::alloc::System.dealloc(ptr, layout) }
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: std::alloc::Layout, size: usize) -> *mut u8 {
-        note_allocation(size);
-        unsafe { std::alloc::System.realloc(ptr, layout, size) }
-    }
-}
-
-#[global_allocator]
-static ALLOCATOR: TrackingAllocator = TrackingAllocator;
-
-/// The most a NIfTI case may allocate at once.
-const ALLOCATION_LIMIT: usize = 1 << 30;
-
 /// NIfTI-1 datatype codes with their bits per voxel: the ten read, then the ones refused.
 const NIFTI_TYPES: [(i16, i16); 17] = [
     (2, 8),
@@ -984,13 +971,9 @@ fn check_nifti(dir: &Path, c: NiftiCase) -> Result<Verdict, String> {
         dataset: None,
         expected_sha256: None,
     };
-    LARGEST_ALLOCATION.with(|largest| largest.set(0));
-    let result = read_volume(&request);
-    let largest = LARGEST_ALLOCATION.with(|largest| largest.get());
-    if largest >= ALLOCATION_LIMIT {
-        return Err(format!("{largest} bytes allocated at once for {c:?}"));
-    }
-    match result {
+    // The harness checks the case's largest allocation (a header that claims gigabytes
+    // must be refused before they are asked for).
+    match read_volume(&request) {
         Ok(v) => {
             let b = v.grid().bounds();
             let densities_ok = v
@@ -1343,4 +1326,540 @@ fn fuzz_pbrt_include_graphs_long() {
         include_graph(),
         check_include_graph,
     );
+}
+
+// --- environment maps: PFM, Radiance .hdr, OpenEXR -----------------------------------------
+
+/// What a generated map file starts as.
+#[derive(Debug, Clone, Copy)]
+enum MapFormat {
+    /// `PF` (RGB) or `Pf` (grey), little- or big-endian.
+    Pfm {
+        grey: bool,
+        big: bool,
+    },
+    Hdr,
+    Exr,
+}
+
+/// A change to a valid map file.
+#[derive(Debug, Clone)]
+enum MapMutation {
+    /// Replace header field `i` (PFM: type, width, height, scale; .hdr: the size line).
+    Field(usize, String),
+    /// Flip a bit of the first 96 bytes.
+    Flip(usize, u8),
+    /// Keep this many 256ths of the file.
+    Cut(u8),
+    /// Append bytes.
+    Append(Vec<u8>),
+    /// Make the file 3 GiB long (sparse).
+    Huge,
+}
+
+#[derive(Debug, Clone)]
+struct MapCase {
+    format: MapFormat,
+    width: usize,
+    height: usize,
+    /// Texel values, cycled; some are out of range.
+    values: Vec<f32>,
+    mutations: Vec<MapMutation>,
+}
+
+/// A value a header field might hold: sizes that wrap or exceed the bound, bad scales, a
+/// secret (which no error may quote) and control bytes.
+fn map_field() -> impl Strategy<Value = String> {
+    prop_oneof![
+        Just("PF".to_string()),
+        Just("Pf".to_string()),
+        Just("P6".to_string()),
+        Just("4611686018427387904".to_string()),
+        Just("16384".to_string()),
+        Just("0".to_string()),
+        Just("3".to_string()),
+        Just("-1".to_string()),
+        Just("-1e38".to_string()),
+        Just("1e39".to_string()),
+        Just("nan".to_string()),
+        Just("hunter2secret".to_string()),
+        Just("\u{1b}]0;x\u{7}".to_string()),
+        Just("-Y 16384 +X 16384".to_string()),
+        Just("-Y 4294967295 +X 4294967295".to_string()),
+        Just("+Y 2 -X 3".to_string()),
+        "[ -~]{0,10}",
+    ]
+}
+
+fn map_case() -> impl Strategy<Value = MapCase> {
+    let format = prop_oneof![
+        (any::<bool>(), any::<bool>()).prop_map(|(grey, big)| MapFormat::Pfm { grey, big }),
+        Just(MapFormat::Hdr),
+        Just(MapFormat::Exr),
+    ];
+    let value = prop_oneof![
+        6 => 0.0f32..4.0,
+        1 => Just(0.0f32),
+        1 => Just(3e38f32),
+        1 => Just(-1.0f32),
+        1 => Just(f32::NAN),
+    ];
+    let mutation = prop_oneof![
+        3 => (0usize..4, map_field()).prop_map(|(i, v)| MapMutation::Field(i, v)),
+        2 => (0usize..96, 0u8..8).prop_map(|(i, b)| MapMutation::Flip(i, b)),
+        1 => any::<u8>().prop_map(MapMutation::Cut),
+        1 => prop::collection::vec(any::<u8>(), 1..64).prop_map(MapMutation::Append),
+        1 => Just(MapMutation::Huge),
+    ];
+    (
+        format,
+        1usize..7,
+        1usize..5,
+        prop::collection::vec(value, 1..6),
+        prop::collection::vec(mutation, 0..3),
+    )
+        .prop_map(|(format, width, height, values, mutations)| MapCase {
+            format,
+            width,
+            height,
+            values,
+            mutations,
+        })
+}
+
+/// The header fields and the pixel bytes of the case's valid file.
+fn map_parts(dir: &Path, c: &MapCase) -> (Vec<String>, Vec<u8>) {
+    let (w, h) = (c.width, c.height);
+    let texel = |i: usize| c.values[i % c.values.len()];
+    match c.format {
+        MapFormat::Pfm { grey, big } => {
+            let channels = if grey { 1 } else { 3 };
+            let data = (0..w * h * channels)
+                .flat_map(|i| {
+                    if big {
+                        texel(i).to_be_bytes()
+                    } else {
+                        texel(i).to_le_bytes()
+                    }
+                })
+                .collect();
+            let kind = if grey { "Pf" } else { "PF" };
+            let scale = if big { "1" } else { "-1" };
+            (
+                vec![kind.into(), w.to_string(), h.to_string(), scale.into()],
+                data,
+            )
+        }
+        MapFormat::Hdr => {
+            let rgb: Vec<image::Rgb<f32>> = (0..w * h)
+                .map(|i| image::Rgb([texel(i).abs().min(1e30), texel(i + 1).abs().min(1e30), 0.5]))
+                .collect();
+            let mut bytes = Vec::new();
+            image::codecs::hdr::HdrEncoder::new(&mut bytes)
+                .encode(&rgb, w, h)
+                .unwrap();
+            // Split after the size line: the fields are the header's lines.
+            let text_end = bytes
+                .windows(2)
+                .position(|p| p == b"\n\n")
+                .map_or(0, |i| i + 2);
+            let size_end = text_end
+                + bytes[text_end..]
+                    .iter()
+                    .position(|&b| b == b'\n')
+                    .unwrap_or(0)
+                + 1;
+            let head = String::from_utf8_lossy(&bytes[..text_end]).into_owned();
+            let size = String::from_utf8_lossy(&bytes[text_end..size_end - 1]).into_owned();
+            (vec![head, size], bytes[size_end..].to_vec())
+        }
+        MapFormat::Exr => {
+            let path = dir.join(format!("make-{}.exr", std::process::id()));
+            exr::prelude::write_rgb_file(&path, w, h, |x, y| {
+                let i = y * w + x;
+                (texel(i), texel(i + 1), texel(i + 2))
+            })
+            .unwrap();
+            (vec![], std::fs::read(&path).unwrap())
+        }
+    }
+}
+
+fn map_bytes(dir: &Path, c: &MapCase) -> (Vec<u8>, bool) {
+    let (mut fields, data) = map_parts(dir, c);
+    let mut huge = false;
+    for m in &c.mutations {
+        if let MapMutation::Field(i, v) = m
+            && !fields.is_empty()
+        {
+            let n = fields.len();
+            fields[i % n] = v.clone();
+        }
+    }
+    let mut bytes = match c.format {
+        MapFormat::Pfm { .. } => format!(
+            "{}\n{} {}\n{}\n",
+            fields[0], fields[1], fields[2], fields[3]
+        )
+        .into_bytes(),
+        MapFormat::Hdr => format!("{}{}\n", fields[0], fields[1]).into_bytes(),
+        MapFormat::Exr => Vec::new(),
+    };
+    bytes.extend(data);
+    for m in &c.mutations {
+        match m {
+            MapMutation::Flip(i, bit) if !bytes.is_empty() => {
+                let n = bytes.len().min(96);
+                bytes[i % n] ^= 1 << bit;
+            }
+            MapMutation::Cut(k) => bytes.truncate(bytes.len() * usize::from(*k) / 256),
+            MapMutation::Append(extra) => bytes.extend(extra),
+            MapMutation::Huge => huge = true,
+            _ => {}
+        }
+    }
+    (bytes, huge)
+}
+
+/// An error must name the file, and never quote a secret or a raw control byte of it.
+fn check_map_error(text: &str, path: &Path, c: &MapCase) -> Result<Verdict, String> {
+    let name = path.file_name().unwrap().to_string_lossy();
+    if !text.contains(name.as_ref()) {
+        return Err(format!("error does not name {name}: {text}"));
+    }
+    if text.contains("hunter2") || text.chars().any(|ch| ch.is_control() && ch != '\n') {
+        return Err(format!("error quotes the file: {text:?} for {c:?}"));
+    }
+    Ok(Verdict::Rejected)
+}
+
+fn check_map(dir: &Path, c: MapCase) -> Result<Verdict, String> {
+    let ext = match c.format {
+        MapFormat::Pfm { .. } => "pfm",
+        MapFormat::Hdr => "hdr",
+        MapFormat::Exr => "exr",
+    };
+    let path = dir.join(format!("map-{}.{ext}", std::process::id()));
+    let (bytes, huge) = map_bytes(dir, &c);
+    write(&path, &bytes);
+    if huge {
+        let file = std::fs::OpenOptions::new().write(true).open(&path).unwrap();
+        file.set_len(3 << 30).unwrap();
+    }
+    match volphot::EnvironmentMap::load(&path) {
+        Ok(map) => {
+            let sane = map
+                .texels()
+                .iter()
+                .all(|t| t.is_finite() && t.min_element() >= 0.0 && t.max_element() <= 1e20)
+                && map.integral().is_finite()
+                && map.width() * map.height() == map.texels().len();
+            if sane {
+                Ok(Verdict::Accepted)
+            } else {
+                Err(format!(
+                    "a map with texels beyond [0, 1e20] accepted from {c:?}"
+                ))
+            }
+        }
+        Err(e) => check_map_error(&e.to_string(), &path, &c),
+    }
+}
+
+#[test]
+fn fuzz_environment_maps() {
+    fuzz("environment_maps", CI_CASES, map_case(), check_map);
+}
+
+#[test]
+#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+fn fuzz_environment_maps_long() {
+    fuzz("environment_maps", LONG_CASES, map_case(), check_map);
+}
+
+// --- light and clip tables -------------------------------------------------------------------
+
+/// The keys that make each light type valid, written after the generated ones (which take
+/// precedence) so that a good share of the tables build.
+const LIGHT_TEMPLATES: &[&[(&str, &str)]] = &[
+    &[("position", "[0.5, 0.5, 2]"), ("intensity", "1")],
+    &[
+        ("position", "[0.5, 0.5, 2]"),
+        ("target", "[0.5, 0.5, 0.5]"),
+        ("intensity", "1"),
+    ],
+    &[
+        ("position", "[0.5, 0.5, 2]"),
+        ("normal", "[0, 0, -1]"),
+        ("size", "[0.5, 0.25]"),
+        ("radiance", "1"),
+    ],
+    &[
+        ("position", "[0.5, 0.5, 2]"),
+        ("normal", "[0, 0, -1]"),
+        ("radius", "0.25"),
+        ("radiance", "1"),
+    ],
+    &[],
+    &[("file", "\"sky.pfm\"")],
+    &[],
+];
+
+/// Each light type with its keys (a key of another type is drawn now and then too).
+const LIGHT_TYPES: &[(&str, &[&str])] = &[
+    ("point", &["position", "intensity"]),
+    (
+        "spot",
+        &[
+            "position",
+            "target",
+            "intensity",
+            "cone_angle",
+            "beam_width",
+        ],
+    ),
+    (
+        "rect",
+        &["position", "target", "normal", "up", "size", "radiance"],
+    ),
+    (
+        "disc",
+        &["position", "target", "normal", "radius", "radiance"],
+    ),
+    (
+        "sky",
+        &[
+            "scale",
+            "up",
+            "rotation",
+            "zenith",
+            "horizon",
+            "ground",
+            "sun_direction",
+            "sun_radiance",
+            "sun_angle",
+        ],
+    ),
+    ("environment", &["file", "scale", "up", "rotation"]),
+    ("laser", &["position"]),
+];
+
+/// Values for light and clip keys: ordinary ones, extremes of 32-bit floats, degenerate
+/// vectors and the environment map the fixtures hold.
+fn light_value() -> impl Strategy<Value = String> {
+    prop_oneof![
+        Just("[0.5, 0.5, 2]".to_string()),
+        Just("[0, 0, 1]".to_string()),
+        Just("[0, 0, -1]".to_string()),
+        Just("[0, 0, 0]".to_string()),
+        Just("[1e-30, 1e-30]".to_string()),
+        Just("[0.5, 0.25]".to_string()),
+        Just("[1e38, 1e38, 1e38]".to_string()),
+        Just("[1, nan, 1]".to_string()),
+        Just("1".to_string()),
+        Just("0".to_string()),
+        Just("-2".to_string()),
+        Just("30".to_string()),
+        Just("0.53".to_string()),
+        Just("0.0001".to_string()),
+        Just("0.001".to_string()),
+        Just("90".to_string()),
+        Just("1e-23".to_string()),
+        Just("1e38".to_string()),
+        Just("3e38".to_string()),
+        Just("inf".to_string()),
+        Just("\"sky.pfm\"".to_string()),
+        Just("\"../outside.pfm\"".to_string()),
+        Just("\"link.pfm\"".to_string()),
+        Just("\"none.exr\"".to_string()),
+    ]
+}
+
+/// A light table: its type, then keys as (type whose key list to draw from — mostly its
+/// own —, index into that list, value).
+type LightTable = (usize, Vec<(Option<usize>, usize, String)>);
+
+fn light_case() -> impl Strategy<Value = Vec<LightTable>> {
+    let key = (
+        prop::option::weighted(0.1, 0..LIGHT_TYPES.len()),
+        0usize..16,
+        light_value(),
+    );
+    let table = (0..LIGHT_TYPES.len(), prop::collection::vec(key, 0..4));
+    prop::collection::vec(table, 1..3)
+}
+
+/// The maps a light table may name: one inside the folder, one beside it (named by its
+/// path), and a link out of the folder.
+fn light_fixtures(dir: &Path) {
+    let mut map = b"Pf\n2 2\n-1\n".to_vec();
+    map.extend([1.0f32, 2.0, 0.5, 0.0].iter().flat_map(|v| v.to_le_bytes()));
+    write(&dir.join("sky.pfm"), &map);
+    let outside = dir.parent().unwrap().join("outside.pfm");
+    write(&outside, &map);
+    let link = dir.join("link.pfm");
+    if !link.exists() {
+        std::os::unix::fs::symlink(&outside, &link).unwrap();
+    }
+}
+
+/// Light arriving at the volume's centre from each light: finite, and a power finite and
+/// above 0 (every light must emit) — what the integrators sum in 32-bit floats.
+fn lights_are_finite(scene: &Scene) -> bool {
+    let mut rng = volphot::Rng::stream(7, volphot::Domain::Photons, 0);
+    scene.lights().iter().all(|light| {
+        let power = light.power();
+        let incident_ok = (0..64).all(|_| {
+            light
+                .sample_incident(glam::Vec3::splat(0.5), &mut rng)
+                .is_none_or(|i| i.radiance.is_finite() && i.to_light.is_finite() && i.pdf > 0.0)
+        });
+        power.is_finite() && power.min_element() >= 0.0 && power.max_element() > 0.0 && incident_ok
+    })
+}
+
+fn check_lights(dir: &Path, tables: Vec<LightTable>) -> Result<Verdict, String> {
+    light_fixtures(dir);
+    let mut text =
+        "[volume]\nphantom = { name = \"sphere\", resolution = [4, 4, 4] }\n".to_string();
+    for (kind, keys) in &tables {
+        let (name, own) = LIGHT_TYPES[*kind];
+        text += &format!("[[lights]]\ntype = \"{name}\"\n");
+        let mut seen = Vec::new();
+        for (from, k, v) in keys {
+            let list = from.map_or(own, |t| LIGHT_TYPES[t].1);
+            let key = list[k % list.len()];
+            if !seen.contains(&key) {
+                seen.push(key);
+                text += &format!("{key} = {v}\n");
+            }
+        }
+        for (key, v) in LIGHT_TEMPLATES[*kind] {
+            if !seen.contains(key) {
+                text += &format!("{key} = {v}\n");
+            }
+        }
+    }
+    let path = dir.join("lights.toml");
+    write(&path, text.as_bytes());
+    match Scene::load(&path, &SearchPath::new(vec![])) {
+        Ok(scene) if lights_are_finite(&scene) => Ok(Verdict::Accepted),
+        Ok(_) => Err(format!(
+            "a light with infinite or NaN light accepted from\n{text}"
+        )),
+        Err(e) => {
+            let message = e.to_string();
+            if message.starts_with(&format!("{}:", path.display())) {
+                Ok(Verdict::Rejected)
+            } else {
+                Err(format!("unlocated error `{message}` for\n{text}"))
+            }
+        }
+    }
+}
+
+fn fuzz_light_tables_with(cases: u32) {
+    let root = tempfile::tempdir().unwrap();
+    let scenes = root.path().join("scenes");
+    std::fs::create_dir(&scenes).unwrap();
+    fuzz("light_tables", cases, light_case(), move |_, tables| {
+        check_lights(&scenes, tables)
+    });
+}
+
+#[test]
+fn fuzz_light_tables() {
+    fuzz_light_tables_with(CI_CASES);
+}
+
+#[test]
+#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+fn fuzz_light_tables_long() {
+    fuzz_light_tables_with(LONG_CASES);
+}
+
+/// A generated plane: a normal and an offset from lists that include the degenerate.
+fn clip_plane() -> impl Strategy<Value = String> {
+    let normal = prop_oneof![
+        Just("[1, 0, 0]"),
+        Just("[-1, 0, 0]"),
+        Just("[0, 1, 1]"),
+        Just("[1e-30, 0, 0]"),
+        Just("[1e30, 1e30, 0]"),
+        Just("[0, 0, 0]"),
+        Just("[nan, 0, 1]"),
+    ];
+    let offset = prop_oneof![
+        Just("0.5"),
+        Just("-0.5"),
+        Just("-0.5000001"),
+        Just("-0.501"),
+        Just("0"),
+        Just("1"),
+        Just("-1"),
+        Just("1e30"),
+    ];
+    (normal, offset).prop_map(|(n, o)| format!("{{ normal = {n}, offset = {o} }}"))
+}
+
+fn clip_case() -> impl Strategy<Value = (u8, Option<String>, Vec<String>)> {
+    let crop = prop_oneof![
+        Just("{ p0 = [0, 0, 0], p1 = [1, 1, 1] }".to_string()),
+        Just("{ p0 = [0, 0, 0.5], p1 = [1, 1, 0.5000001] }".to_string()),
+        Just("{ p0 = [0.2, 0.2, 0.2], p1 = [0.8, 0.8, 0.3] }".to_string()),
+        Just("{ p0 = [2, 2, 2], p1 = [3, 3, 3] }".to_string()),
+        Just("{ p0 = [0.6, 0, 0], p1 = [0.4, 1, 1] }".to_string()),
+    ];
+    (
+        0u8..3,
+        prop::option::of(crop),
+        prop::collection::vec(clip_plane(), 0..4),
+    )
+}
+
+fn check_clip(
+    dir: &Path,
+    (space, crop, planes): (u8, Option<String>, Vec<String>),
+) -> Result<Verdict, String> {
+    let mut text = "[volume]\nphantom = { name = \"constant\", resolution = [4, 4, 4] }\n[three_point]\n[clip]\n".to_string();
+    text += &format!(
+        "space = \"{}\"\n",
+        ["volume", "world", "view"][space as usize]
+    );
+    if let Some(b) = &crop {
+        text += &format!("box = {b}\n");
+    }
+    if !planes.is_empty() {
+        text += &format!("planes = [{}]\n", planes.join(", "));
+    }
+    let path = dir.join("clip.toml");
+    write(&path, text.as_bytes());
+    match Scene::load(&path, &SearchPath::new(vec![])) {
+        Ok(scene) => match scene.medium().clip_region() {
+            Some(region) if region.volume().is_nan() || region.volume() <= 0.0 => Err(format!(
+                "a region of volume {} accepted from\n{text}",
+                region.volume()
+            )),
+            _ => Ok(Verdict::Accepted),
+        },
+        Err(e) => {
+            let message = e.to_string();
+            if message.starts_with(&format!("{}:", path.display())) {
+                Ok(Verdict::Rejected)
+            } else {
+                Err(format!("unlocated error `{message}` for\n{text}"))
+            }
+        }
+    }
+}
+
+#[test]
+fn fuzz_clip_tables() {
+    fuzz("clip_tables", CI_CASES, clip_case(), check_clip);
+}
+
+#[test]
+#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+fn fuzz_clip_tables_long() {
+    fuzz("clip_tables", LONG_CASES, clip_case(), check_clip);
 }

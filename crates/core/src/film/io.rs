@@ -198,13 +198,36 @@ pub fn write_pfm(path: &Path, width: usize, height: usize, pixels: &[Vec3]) -> R
 }
 
 /// Reads a colour PFM (`PF`, either byte order, bottom row first) as top-row-first RGB:
-/// `(width, height, pixels)`.
+/// `(width, height, pixels)`. The header is read first: a file whose size is not what its
+/// header promises, or whose pixels would not fit in 2^28 pixels or half the
+/// machine's available memory, is refused before any pixel is read.
 pub fn read_pfm(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    decode_pfm(path, &bytes, PfmChannels::ColourOnly)
+    let (width, height, pixels, _) =
+        read_pfm_bounded(path, PfmChannels::ColourOnly, "PFM image", |w, h| {
+            check_pfm_pixels(path, w, h)
+        })?;
+    Ok((width, height, pixels))
 }
 
-/// Which PFM types [`decode_pfm`] accepts.
+/// The most pixels a PFM image read by [`read_pfm`] may hold (2^28, 3 GiB of RGB floats).
+const MAX_PFM_PIXELS: usize = 1 << 28;
+
+/// Refuses a film larger than [`MAX_PFM_PIXELS`] or than half the available memory.
+fn check_pfm_pixels(path: &Path, width: usize, height: usize) -> Result<()> {
+    let budget = crate::util::memory_budget_bytes() / 12;
+    let limit = (MAX_PFM_PIXELS as u64).min(budget);
+    match width.checked_mul(height) {
+        Some(n) if n as u64 <= limit => Ok(()),
+        _ => Err(Error::format(
+            path,
+            format!(
+                "PFM: {width}×{height} pixels is more than the {limit} this machine loads (at most {MAX_PFM_PIXELS}, and 12 bytes each within half the available memory)"
+            ),
+        )),
+    }
+}
+
+/// Which PFM types a reader accepts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PfmChannels {
     /// `PF` only (films).
@@ -213,85 +236,187 @@ pub enum PfmChannels {
     ColourOrGrey,
 }
 
-/// Decodes a PFM file's bytes (`path` names it in errors): little-endian if the scale is
-/// negative, values times |scale| (as pbrt-v4 reads them; writers write ±1), rows stored
-/// bottom row first and returned top row first.
-pub fn decode_pfm(
-    path: &Path,
-    bytes: &[u8],
-    accepted: PfmChannels,
-) -> Result<(usize, usize, Vec<Vec3>)> {
-    let bad = |what: String| Error::format(path, format!("PFM: {what}"));
-    let (fields, at) = pfm_header(bytes).ok_or_else(|| {
-        bad("expected the header `PF` or `Pf`, width, height and scale".to_string())
-    })?;
-    let text = |f: &[u8]| String::from_utf8_lossy(f).into_owned();
-    let channels = match (fields[0], accepted) {
-        (b"PF", _) => 3,
-        (b"Pf", PfmChannels::ColourOrGrey) => 1,
-        (b"Pf", PfmChannels::ColourOnly) => {
-            return Err(bad("`Pf` is not a colour PFM (expected `PF`)".to_string()));
-        }
-        (other, _) => {
-            return Err(bad(format!(
-                "type `{}`: expected `PF` (RGB) or `Pf` (grey)",
-                text(other)
-            )));
-        }
-    };
-    let size = |f: &[u8]| text(f).parse::<usize>().ok().filter(|&n| n >= 1);
-    let (Some(width), Some(height)) = (size(fields[1]), size(fields[2])) else {
-        return Err(bad(format!(
-            "size `{} {}`: expected two whole numbers ≥ 1",
-            text(fields[1]),
-            text(fields[2])
-        )));
-    };
-    let scale = text(fields[3])
-        .parse::<f32>()
-        .ok()
-        .filter(|s| s.is_finite() && *s != 0.0)
-        .ok_or_else(|| {
+/// The longest PFM header read: the type, two sizes and the scale, each at most 32 bytes,
+/// and the white space between them.
+const PFM_HEADER_CAP: usize = 256;
+
+/// A PFM file's header: its type, size and scale, and where its pixels start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PfmHeader {
+    /// Pixels across.
+    width: usize,
+    /// Pixels down.
+    height: usize,
+    /// 3 for `PF`, 1 for `Pf`.
+    channels: usize,
+    /// The header's scale: its sign is the byte order (negative: little-endian), its
+    /// magnitude multiplies every value.
+    scale: f32,
+    /// The offset of the first pixel byte.
+    data_start: usize,
+}
+
+impl PfmHeader {
+    /// Parses the header at the start of `bytes` (errors name `path`, and quote a field
+    /// only as a number or by its first few bytes, escaped: the file may not be a PFM at
+    /// all, and its first words may be anything).
+    fn parse(path: &Path, bytes: &[u8], accepted: PfmChannels) -> Result<Self> {
+        let bad = |what: String| Error::format(path, format!("PFM: {what}"));
+        let (fields, data_start) = pfm_header(bytes).ok_or_else(|| {
             bad(format!(
-                "scale `{}`: expected a non-zero number (negative: little-endian)",
-                text(fields[3])
+                "expected the header `PF` or `Pf`, width, height and scale (within its first {PFM_HEADER_CAP} bytes); the file starts with `{}`",
+                crate::util::escaped_prefix(bytes, 2)
             ))
         })?;
-    let row_bytes = width * channels * 4;
-    let data = bytes.get(at..).unwrap_or_default();
-    if row_bytes.checked_mul(height) != Some(data.len()) {
-        return Err(bad(format!(
-            "{} bytes of pixels, expected {} for {width}×{height} {}",
-            data.len(),
-            (row_bytes as u128) * (height as u128),
-            if channels == 3 { "RGB" } else { "grey" }
-        )));
+        let channels = match (fields[0], accepted) {
+            (b"PF", _) => 3,
+            (b"Pf", PfmChannels::ColourOrGrey) => 1,
+            (b"Pf", PfmChannels::ColourOnly) => {
+                return Err(bad("`Pf` is not a colour PFM (expected `PF`)".to_string()));
+            }
+            (other, _) => {
+                return Err(bad(format!(
+                    "type `{}`: expected `PF` (RGB) or `Pf` (grey)",
+                    crate::util::escaped_prefix(other, 2)
+                )));
+            }
+        };
+        let size = |f: &[u8]| {
+            std::str::from_utf8(f)
+                .ok()
+                .and_then(|t| t.parse::<usize>().ok())
+                .filter(|&n| n >= 1)
+        };
+        let (Some(width), Some(height)) = (size(fields[1]), size(fields[2])) else {
+            return Err(bad(format!(
+                "size `{} {}`: expected two whole numbers ≥ 1",
+                shown_field(fields[1]),
+                shown_field(fields[2])
+            )));
+        };
+        let scale = std::str::from_utf8(fields[3])
+            .ok()
+            .and_then(|t| t.parse::<f32>().ok())
+            .filter(|s| s.is_finite() && *s != 0.0)
+            .ok_or_else(|| {
+                bad(format!(
+                    "scale `{}`: expected a finite non-zero number (negative: little-endian)",
+                    shown_field(fields[3])
+                ))
+            })?;
+        Ok(PfmHeader {
+            width,
+            height,
+            channels,
+            scale,
+            data_start,
+        })
     }
-    let value = |b: &[u8]| {
-        let b: [u8; 4] = b.try_into().expect("chunks of 4 bytes");
-        scale.abs()
-            * if scale < 0.0 {
-                f32::from_le_bytes(b)
+
+    /// The bytes of pixel data the header promises, `None` past `u64` (a corrupt size).
+    fn pixel_bytes(&self) -> Option<u64> {
+        (self.width as u64)
+            .checked_mul(self.height as u64)?
+            .checked_mul(self.channels as u64 * 4)
+    }
+
+    /// The error for pixel data of `found` bytes where the header promises another size.
+    fn wrong_size(&self, path: &Path, found: u64) -> Error {
+        Error::format(
+            path,
+            format!(
+                "PFM: {found} bytes of pixels, expected {} for {}×{} {}",
+                (self.width as u128) * (self.height as u128) * (self.channels as u128) * 4,
+                self.width,
+                self.height,
+                if self.channels == 3 { "RGB" } else { "grey" }
+            ),
+        )
+    }
+
+    /// Decodes one stored row (`width · channels` values) into `out`, times |scale|.
+    fn decode_row(&self, line: &[u8], out: &mut [Vec3]) {
+        let little = self.scale < 0.0;
+        let magnitude = self.scale.abs();
+        let value = |b: &[u8]| {
+            let b: [u8; 4] = b.try_into().expect("chunks of 4 bytes");
+            magnitude
+                * if little {
+                    f32::from_le_bytes(b)
+                } else {
+                    f32::from_be_bytes(b)
+                }
+        };
+        for (px, texel) in line.chunks_exact(self.channels * 4).zip(out) {
+            *texel = if self.channels == 3 {
+                Vec3::new(value(&px[0..4]), value(&px[4..8]), value(&px[8..12]))
             } else {
-                f32::from_be_bytes(b)
-            }
-    };
-    let mut texels = vec![Vec3::ZERO; width * height];
-    for (stored, line) in data.chunks_exact(row_bytes).enumerate() {
-        let row = height - 1 - stored;
-        for (x, px) in line.chunks_exact(channels * 4).enumerate() {
-            let mut c = [0.0; 3];
-            for (k, b) in px.chunks_exact(4).enumerate() {
-                c[k] = value(b);
-            }
-            texels[row * width + x] = if channels == 3 {
-                Vec3::from(c)
-            } else {
-                Vec3::splat(c[0])
+                Vec3::splat(value(px))
             };
         }
     }
-    Ok((width, height, texels))
+}
+
+/// A header field as an error shows it: whole if it is a number as written (digits, sign,
+/// point, exponent), else its first four bytes, escaped.
+fn shown_field(field: &[u8]) -> String {
+    let numeric = field
+        .iter()
+        .all(|b| b.is_ascii_digit() || b"+-.eE".contains(b));
+    if numeric {
+        String::from_utf8_lossy(field).into_owned()
+    } else {
+        crate::util::escaped_prefix(field, 4)
+    }
+}
+
+/// Reads a PFM file (little-endian if the scale is negative, values times |scale| as
+/// pbrt-v4 reads them — writers write ±1 —, rows stored bottom row first and returned top
+/// row first), its header first: `check_size(width, height)` may refuse its size before
+/// anything is allocated, and a file longer or shorter than its header promises is
+/// refused by its length before any pixel is read; then the pixels, one row at a time.
+/// Returns `(width, height, pixels top row first, header scale)`; `what` names the file's
+/// role in errors ("environment map (PFM)").
+pub(crate) fn read_pfm_bounded(
+    path: &Path,
+    accepted: PfmChannels,
+    what: &str,
+    check_size: impl FnOnce(usize, usize) -> Result<()>,
+) -> Result<(usize, usize, Vec<Vec3>, f32)> {
+    use std::io::Read as _;
+    let (file, length) = crate::util::open_regular(path, what)?;
+    let mut reader = std::io::BufReader::new(file);
+    let mut head = Vec::with_capacity(PFM_HEADER_CAP);
+    (&mut reader)
+        .take(PFM_HEADER_CAP as u64)
+        .read_to_end(&mut head)
+        .map_err(|e| Error::io(path, e))?;
+    let header = PfmHeader::parse(path, &head, accepted)?;
+    let promised = length.checked_sub(header.data_start as u64);
+    if promised.is_none() || header.pixel_bytes() != promised {
+        return Err(header.wrong_size(path, promised.unwrap_or(0)));
+    }
+    check_size(header.width, header.height)?;
+    let row_bytes = header.width * header.channels * 4;
+    let mut texels = vec![Vec3::ZERO; header.width * header.height];
+    let mut line = vec![0u8; row_bytes];
+    // The header's bytes already read past its end are the first pixels.
+    let mut rest = std::io::Cursor::new(head[header.data_start.min(head.len())..].to_vec())
+        .chain(reader.take(length));
+    for stored in 0..header.height {
+        rest.read_exact(&mut line).map_err(|e| {
+            Error::format(
+                path,
+                format!("PFM: reading row {stored} of {} (from the bottom): {e}; the file changed while it was read?", header.height),
+            )
+        })?;
+        let row = header.height - 1 - stored;
+        header.decode_row(
+            &line,
+            &mut texels[row * header.width..(row + 1) * header.width],
+        );
+    }
+    Ok((header.width, header.height, texels, header.scale))
 }
 
 /// Splits a PFM header into its four white-space separated fields ("PF" or "Pf", width,
@@ -313,7 +438,9 @@ fn pfm_header(bytes: &[u8]) -> Option<([&[u8]; 4], usize)> {
         }
         *field = &bytes[start..at];
     }
-    Some((fields, at + 1))
+    // The one white-space byte that ends the header must be there (a header cut short
+    // at the end of the bytes read is not a header).
+    (at < bytes.len()).then_some((fields, at + 1))
 }
 
 #[cfg(test)]

@@ -21,7 +21,8 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 pub use agreement::{Agreement, agreement, luminance};
-pub use io::{PfmChannels, decode_pfm, read_pfm, to_srgb8, write_pfm, write_png, write_png_rgb8};
+pub(crate) use io::read_pfm_bounded;
+pub use io::{PfmChannels, read_pfm, to_srgb8, write_pfm, write_png, write_png_rgb8};
 
 /// One of the film's radiance layers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]

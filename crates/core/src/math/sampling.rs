@@ -37,12 +37,3 @@ pub fn cosine_hemisphere(u: [f32; 2]) -> Vec3 {
     let [x, y] = concentric_disc(u);
     Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt())
 }
-
-/// A direction uniform in the cone of half-angle `acos(cos_max)` around +z.
-#[inline]
-pub fn uniform_cone(u: [f32; 2], cos_max: f32) -> Vec3 {
-    let cos_t = 1.0 - u[0] * (1.0 - cos_max);
-    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let phi = 2.0 * PI * u[1];
-    Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
-}

@@ -15,6 +15,10 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Ray};
 
+/// The thinnest kept region, relative to the volume's size (its largest extent, or the
+/// largest coordinate of its box if that is larger): about eight steps of a 32-bit float.
+pub const MIN_RELATIVE_THICKNESS: f32 = 1e-6;
+
 /// Where the clip's coordinates live.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -224,14 +228,76 @@ impl ClipRegion {
             .map(|(_, p)| world_half_space(p, params.space, bounds, view.as_ref()))
             .collect();
         let region = ClipRegion { crop, planes };
-        if region.faces().is_empty() {
+        let faces = region.faces();
+        if faces.is_empty() {
             return Err(Error::parameter(
                 "plane",
                 describe_planes(params),
                 "clip planes that keep part of the crop box (each keeps the side its normal points to; together they keep nothing)",
             ));
         }
+        region.check_thickness(&faces, bounds, params)?;
         Ok(Some(region))
+    }
+
+    /// Refuses a kept region thinner than [`MIN_RELATIVE_THICKNESS`] of the volume's size
+    /// (two planes keeping the slab `x ≥ 0.5`, `x ≤ 0.5`, or a sliver under a 32-bit
+    /// float's step): it keeps nothing a ray can resolve, and would render black. The
+    /// width is measured across every plane and every axis of the crop box, the
+    /// directions in which such a region is thin.
+    fn check_thickness(
+        &self,
+        faces: &[Vec<Vec3>],
+        bounds: Aabb,
+        params: &ClipParams,
+    ) -> Result<()> {
+        let scale = bounds
+            .largest_extent()
+            .max(bounds.min.abs().max_element())
+            .max(bounds.max.abs().max_element());
+        let least = MIN_RELATIVE_THICKNESS * scale;
+        let directions = [Vec3::X, Vec3::Y, Vec3::Z]
+            .into_iter()
+            .chain(self.planes.iter().map(|h| h.normal));
+        let width_along = |n: Vec3| {
+            let (lo, hi) = faces
+                .iter()
+                .flatten()
+                .map(|v| n.dot(*v))
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| {
+                    (lo.min(d), hi.max(d))
+                });
+            hi - lo
+        };
+        let (width, across) =
+            directions
+                .map(|n| (width_along(n), n))
+                .fold(
+                    (f32::INFINITY, Vec3::X),
+                    |a, b| if b.0 < a.0 { b } else { a },
+                );
+        if width >= least {
+            return Ok(());
+        }
+        let (key, what) = match params.crop {
+            Some(_) if self.planes.is_empty() => ("box", "a crop box"),
+            _ => ("plane", "clip planes (and crop box)"),
+        };
+        let box_and_planes = params
+            .crop
+            .map(|b| format!("box: p0 = {:?}, p1 = {:?}", b.p0, b.p1))
+            .into_iter()
+            .chain((!self.planes.is_empty()).then(|| describe_planes(params)))
+            .collect::<Vec<_>>()
+            .join("; ");
+        Err(Error::parameter(
+            key,
+            box_and_planes,
+            format!(
+                "{what} that keep a region at least {least:e} thick (10⁻⁶ of the volume's size, world units): these keep {width:e} across {:?}, which no ray resolves — the planes together keep nothing",
+                across.to_array()
+            ),
+        ))
     }
 
     /// The crop box in world coordinates (inside the volume's box).

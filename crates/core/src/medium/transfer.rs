@@ -190,7 +190,7 @@ impl TransferFunction {
                 let file = params.file.as_ref().ok_or_else(|| {
                     Error::parameter("file", "(missing)", "the path of a 256×256 PGM image")
                 })?;
-                let path = base.join(file);
+                let path = crate::util::confined(base, file, "the scene's folder")?;
                 Self::from_pgm(&path).map_err(|e| match e {
                     Error::Io { path, error } if error.kind() == std::io::ErrorKind::NotFound => {
                         Error::format(
@@ -287,7 +287,7 @@ impl TransferFunction {
         let mut tf = if let Some(name) = &params.preset {
             ColourTransfer::preset(name)?
         } else if let Some(file) = &params.file {
-            ColourTransfer::read(&base.join(file))?
+            ColourTransfer::read(&crate::util::confined(base, file, "the scene's folder")?)?
         } else {
             let missing = |key: &str| {
                 Error::parameter(

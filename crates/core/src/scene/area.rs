@@ -23,6 +23,10 @@ use super::light::Incident;
 use crate::error::{Error, Result};
 use crate::math::{Frame, Ray, Rng, Sphere, concentric_disc, cosine_hemisphere, uniform_cone};
 
+/// The smallest size or radius of an area light, relative to the largest coordinate of its
+/// position (and at least this in world units): about eight steps of a 32-bit float there.
+pub const MIN_RELATIVE_EXTENT: f32 = 1e-6;
+
 /// The shape of an [`AreaLight`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AreaShape {
@@ -78,11 +82,20 @@ impl AreaLight {
         } else {
             "radius"
         };
-        if !extent.iter().all(|e| e.is_finite() && *e > 0.0 && *e < 1e6) {
+        // Points of a smaller light are not distinct in 32-bit floats around its
+        // position, and its area (1e-30² is 0 in f32) no longer weighs its samples: it
+        // would light nothing, silently.
+        let smallest = MIN_RELATIVE_EXTENT * centre.abs().max_element().max(1.0);
+        if !extent
+            .iter()
+            .all(|e| e.is_finite() && *e >= smallest && *e < 1e6)
+        {
             return Err(Error::parameter(
                 key,
                 format!("{extent:?}"),
-                "finite lengths > 0 (world units, below 1e6)",
+                format!(
+                    "finite lengths from {smallest:e} (10⁻⁶ of the light's distance from the origin, at least 10⁻⁶: smaller, 32-bit floats cannot place its points) to below 1e6 (world units)"
+                ),
             ));
         }
         check_radiance(radiance)?;

@@ -18,26 +18,37 @@
 //! probability ∝ mean(RGB) × its solid angle, then a point uniform in φ and in cos θ inside
 //! it, so the solid-angle pdf is constant inside a texel and equals mean(RGB) / Σ(mean·Ω).
 
+use std::cell::Cell;
+use std::io::Read;
 use std::path::Path;
 
 use glam::{DVec3, Vec3};
 
+use super::light::MAX_INTENSITY;
 use crate::error::{Error, Result};
-use crate::film::{PfmChannels, decode_pfm};
-use crate::util::{open_regular, read_bytes_capped};
+use crate::film::{PfmChannels, read_pfm_bounded};
+use crate::util::{byte_size, memory_budget_bytes, open_regular};
 
-/// The most texels a map file may hold (2^28: a 16k × 8k map is 2^27). Checked before
-/// anything is allocated, so a corrupt header cannot ask for more memory than a real map.
-const MAX_TEXELS: usize = 1 << 28;
+/// The most texels a map file may hold: 2^27, a 16384 × 8192 map (the largest
+/// equirectangular maps published). Checked from the file's header before any texel is
+/// read or allocated, together with [`BYTES_PER_TEXEL`] against half the machine's
+/// available memory.
+pub const MAX_TEXELS: usize = 1 << 27;
 
-/// The largest PFM file read whole: 2^28 RGB float texels plus a header.
-const PFM_FILE_CAP: u64 = (MAX_TEXELS as u64) * 12 + 1024;
+/// Memory a loaded map takes per texel: its RGB (12 bytes) and its sampling
+/// distribution's running sum (8). The largest map, [`MAX_TEXELS`], takes 2.5 GiB.
+pub const BYTES_PER_TEXEL: u64 = 20;
+
+/// The longest header of a Radiance `.hdr` or OpenEXR map read before its size is known
+/// (a real one is a few hundred bytes).
+const HEADER_CAP: u64 = 1 << 20;
 
 /// The largest f64 below 1: sample positions are kept in [0, 1).
 const ONE_BELOW: f64 = 1.0 - f64::EPSILON / 2.0;
 
 /// What the texel checks expect of every texel.
-const TEXEL_EXPECTED: &str = "finite, non-negative RGB radiance in every texel (row 0 is the top)";
+const TEXEL_EXPECTED: &str =
+    "finite, non-negative RGB radiance of at most 1e20 (W/m²/sr) in every texel (row 0 is the top)";
 
 /// An equirectangular environment map (RGB radiance, row 0 at the zenith).
 #[derive(Debug, Clone, PartialEq)]
@@ -51,10 +62,30 @@ pub struct EnvironmentMap {
     /// The running sum of the rows' weights; each row's weight is exactly the last entry
     /// of its column CDF, so a row chosen here always has a column with weight.
     row_cdf: Vec<f64>,
-    /// Σ mean(RGB) × solid angle over every texel: the sampling pdf's normaliser.
+    /// Σ mean(RGB) × solid angle over every texel: the sampling pdf's normaliser (0 for a
+    /// black map, which is never sampled).
     total: f64,
     /// ∫ L dω over the sphere.
     integral: Vec3,
+    /// The largest texel value of each channel.
+    brightest: Vec3,
+}
+
+/// Whether a map black everywhere is an error (a file or texels given: it would light
+/// nothing) or allowed (a sky whose sun is its only light).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum BlackMap {
+    Refused,
+    Allowed,
+}
+
+/// A map's texels as a file held them, before the checks.
+struct Decoded {
+    width: usize,
+    height: usize,
+    texels: Vec<Vec3>,
+    /// A PFM header's scale other than ±1, which multiplied every value (errors say so).
+    pfm_scale: Option<f32>,
 }
 
 /// What is wrong with texel data: the value found and what was expected. The caller adds
@@ -74,13 +105,16 @@ impl EnvironmentMap {
         let extension = path
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        let (width, height, texels) = match extension.as_deref() {
+        let decoded = match extension.as_deref() {
             Some("exr") => read_exr(path)?,
             Some("pfm") => read_pfm(path)?,
             Some("hdr") => read_hdr(path)?,
             other => {
                 let found = match other {
-                    Some(e) => format!("extension .{e}"),
+                    Some(e) => format!(
+                        "extension .{}",
+                        crate::util::escaped_prefix(e.as_bytes(), 8)
+                    ),
                     None => "no extension".to_string(),
                 };
                 return Err(Error::format(
@@ -89,19 +123,40 @@ impl EnvironmentMap {
                 ));
             }
         };
-        Self::build(width, height, texels).map_err(|e| {
+        let scaled = match decoded.pfm_scale {
+            Some(s) => format!(" (the file's values times its header's scale {})", s.abs()),
+            None => String::new(),
+        };
+        Self::build(
+            decoded.width,
+            decoded.height,
+            decoded.texels,
+            BlackMap::Refused,
+        )
+        .map_err(|e| {
             Error::format(
                 path,
-                format!("environment map {}: expected {}", e.value, e.expected),
+                format!(
+                    "environment map {}{scaled}: expected {}",
+                    e.value, e.expected
+                ),
             )
         })
     }
 
     /// Builds from texels in row-major order, row 0 at the top. Refuses (as a parameter
     /// error for `environment`) a zero width or height, a texel count other than
-    /// width × height, a NaN, infinite or negative texel, and a map black everywhere.
+    /// width × height, a NaN, infinite, negative or brighter than 1e20 texel, and a map
+    /// black everywhere.
     pub fn from_texels(width: usize, height: usize, texels: Vec<Vec3>) -> Result<Self> {
-        Self::build(width, height, texels)
+        Self::build(width, height, texels, BlackMap::Refused)
+            .map_err(|e| Error::parameter("environment", e.value, e.expected))
+    }
+
+    /// A procedural sky's bake: as [`Self::from_texels`], but black everywhere is allowed
+    /// (a sky lit by its sun alone); such a map is never sampled and has pdf 0.
+    pub(crate) fn sky(width: usize, height: usize, texels: Vec<Vec3>) -> Result<Self> {
+        Self::build(width, height, texels, BlackMap::Allowed)
             .map_err(|e| Error::parameter("environment", e.value, e.expected))
     }
 
@@ -170,13 +225,24 @@ impl EnvironmentMap {
         self.integral
     }
 
+    /// The largest value of each channel over the texels.
+    pub fn brightest(&self) -> Vec3 {
+        self.brightest
+    }
+
     /// Validates the texels and builds the sampling distribution.
-    fn build(width: usize, height: usize, texels: Vec<Vec3>) -> std::result::Result<Self, Invalid> {
+    fn build(
+        width: usize,
+        height: usize,
+        texels: Vec<Vec3>,
+        black: BlackMap,
+    ) -> std::result::Result<Self, Invalid> {
         check_texels(width, height, &texels)?;
         let mut column_cdf = Vec::with_capacity(texels.len());
         let mut row_cdf = Vec::with_capacity(height);
         let mut total = 0.0;
         let mut integral = DVec3::ZERO;
+        let mut brightest = Vec3::ZERO;
         for (row, texels) in texels.chunks_exact(width).enumerate() {
             let omega = texel_solid_angle(row, width, height);
             // Summed in f64: a large map's CDF would lose its small texels in f32.
@@ -186,12 +252,13 @@ impl EnvironmentMap {
                 running += mean_rgb(t) * omega;
                 column_cdf.push(running);
                 sum += t.as_dvec3();
+                brightest = brightest.max(t);
             }
             total += running;
             row_cdf.push(total);
             integral += sum * omega;
         }
-        if total <= 0.0 {
+        if total <= 0.0 && black == BlackMap::Refused {
             return Err(Invalid {
                 value: "is black everywhere".to_string(),
                 expected: "at least one texel above zero (an environment map that emits \
@@ -207,6 +274,7 @@ impl EnvironmentMap {
             row_cdf,
             total,
             integral: integral.as_vec3(),
+            brightest,
         })
     }
 
@@ -222,6 +290,9 @@ impl EnvironmentMap {
     /// The solid-angle pdf inside texel `index`: its weight mean·Ω over the total, divided
     /// by its solid angle Ω.
     fn texel_pdf(&self, index: usize) -> f32 {
+        if self.total <= 0.0 {
+            return 0.0;
+        }
         (mean_rgb(self.texels[index]) / self.total) as f32
     }
 
@@ -258,9 +329,9 @@ fn check_texels(width: usize, height: usize, texels: &[Vec3]) -> std::result::Re
             ),
         });
     }
-    let bad = texels
-        .iter()
-        .position(|t| !t.is_finite() || t.cmplt(Vec3::ZERO).any());
+    let bad = texels.iter().position(|t| {
+        !t.is_finite() || t.cmplt(Vec3::ZERO).any() || t.max_element() > MAX_INTENSITY
+    });
     if let Some(i) = bad {
         let t = texels[i];
         return Err(Invalid {
@@ -345,31 +416,121 @@ fn search(cdf: &[f64], target: f64) -> (usize, f64) {
     (i, f)
 }
 
-/// Refuses a map too large to hold before allocating it.
+/// Refuses, from its header, a map with more texels than [`MAX_TEXELS`] or than half the
+/// machine's available memory holds at [`BYTES_PER_TEXEL`], before anything is allocated.
 fn check_texel_count(path: &Path, width: usize, height: usize) -> Result<()> {
-    match width.checked_mul(height) {
-        Some(n) if n <= MAX_TEXELS => Ok(()),
+    let fits = memory_budget_bytes() / BYTES_PER_TEXEL;
+    let texels = (width as u128) * (height as u128);
+    if texels <= MAX_TEXELS as u128 && texels <= fits as u128 {
+        return Ok(());
+    }
+    Err(Error::format(
+        path,
+        format!(
+            "environment map is {width}×{height} texels: expected at most {MAX_TEXELS} (16384 × 8192){}",
+            if (fits as u128) < texels {
+                format!(
+                    " and at most {fits} here ({} a texel within half of this machine's available memory, {})",
+                    byte_size(BYTES_PER_TEXEL),
+                    byte_size(memory_budget_bytes())
+                )
+            } else {
+                String::new()
+            }
+        ),
+    ))
+}
+
+/// A file longer than its header's size can need is refused before it is read.
+fn check_length(
+    path: &Path,
+    length: u64,
+    most: Option<u64>,
+    width: usize,
+    height: usize,
+) -> Result<()> {
+    match most {
+        Some(most) if length <= most => Ok(()),
         _ => Err(Error::format(
             path,
-            format!("environment map is {width}×{height} texels: expected at most {MAX_TEXELS}"),
+            format!(
+                "{length} bytes is more than a {width}×{height} map can take ({}); is this the right file?",
+                most.map_or("beyond any file".to_string(), |m| format!(
+                    "at most {m} bytes"
+                ))
+            ),
         )),
     }
 }
 
+/// A reader that reads as ended after its allowance, which its owner can raise once a
+/// header has said how much is to come: no corrupt header can make a reader read a
+/// long file whole (Radiance's header lines, for one, are read until a newline).
+struct Allowance<'a, R> {
+    inner: R,
+    left: &'a Cell<u64>,
+}
+
+impl<R: Read> Read for Allowance<'_, R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = (buf.len() as u64).min(self.left.get()) as usize;
+        if n == 0 {
+            return Ok(0);
+        }
+        let got = self.inner.read(&mut buf[..n])?;
+        self.left.set(self.left.get() - got as u64);
+        Ok(got)
+    }
+}
+
 /// Reads the first OpenEXR layer with R, G and B channels (A, if any, is ignored); row 0
-/// is the image's top, as OpenEXR's y grows downwards.
-fn read_exr(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
+/// is the image's top, as OpenEXR's y grows downwards. The headers are read first: a
+/// layer too large, or a file longer than its layers can take, is refused before any
+/// pixel is read.
+fn read_exr(path: &Path) -> Result<Decoded> {
     // The reader's builder methods come from the crate's extension traits.
     use exr::prelude::traits::*;
+    use std::io::{Seek, SeekFrom};
     type Pixels = (usize, usize, Vec<Vec3>);
-    let (file, _) = open_regular(path, "environment map (OpenEXR)")?;
+    let (file, length) = open_regular(path, "environment map (OpenEXR)")?;
+    let bad = |e: exr::error::Error| {
+        Error::format(
+            path,
+            format!(
+                "reading OpenEXR: {} (expected an image with R, G and B channels)",
+                decoder_message(&e.to_string())
+            ),
+        )
+    };
+    let left = Cell::new(HEADER_CAP);
+    let reader = Allowance {
+        inner: std::io::BufReader::new(&file),
+        left: &left,
+    };
+    let meta = exr::meta::MetaData::read_from_buffered(reader, false).map_err(bad)?;
+    let mut most = Some(HEADER_CAP);
+    for header in meta.headers.iter() {
+        let (w, h) = (header.layer_size.width(), header.layer_size.height());
+        check_texel_count(path, w, h)?;
+        // Generous for any compression, mip levels and tiles of one pixel (each chunk's
+        // offset, coordinates and size take under 64 bytes).
+        let per_texel = 4 * header.channels.bytes_per_pixel as u64 + 64;
+        most = most.and_then(|m| m.checked_add((w as u64 * h as u64).checked_mul(per_texel)?));
+    }
+    if let Some(first) = meta.headers.first() {
+        let size = first.layer_size;
+        check_length(path, length, most, size.width(), size.height())?;
+    }
+    (&file)
+        .seek(SeekFrom::Start(0))
+        .map_err(|e| Error::io(path, e))?;
     let image = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
         .rgba_channels(
             |size, _| {
                 let (w, h) = (size.width(), size.height());
-                // Nothing allocated for an oversized map: refused below, after the read.
+                // Every layer's size was checked above; this only guards the allocation.
                 let n = w.checked_mul(h).filter(|&n| n <= MAX_TEXELS).unwrap_or(0);
                 (w, h, vec![Vec3::ZERO; n])
             },
@@ -383,44 +544,101 @@ fn read_exr(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
         )
         .first_valid_layer()
         .all_attributes()
-        .from_unbuffered(file)
-        .map_err(|e| {
-            Error::format(
-                path,
-                format!("reading OpenEXR: {e} (expected an image with R, G and B channels)"),
-            )
-        })?;
+        .from_unbuffered(&file)
+        .map_err(bad)?;
     let (width, height, texels) = image.layer_data.channel_data.pixels;
     check_texel_count(path, width, height)?;
-    Ok((width, height, texels))
+    Ok(Decoded {
+        width,
+        height,
+        texels,
+        pfm_scale: None,
+    })
 }
 
-/// Reads a Radiance RGBE (.hdr) image, top row first.
-fn read_hdr(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
-    let (file, _) = open_regular(path, "environment map (Radiance .hdr)")?;
-    let mut reader =
-        image::ImageReader::with_format(std::io::BufReader::new(file), image::ImageFormat::Hdr);
-    // The default limit (512 MiB) would refuse an 8k × 4k float map; this one admits
-    // what MAX_TEXELS does and still stops a corrupt header's absurd size.
-    let mut limits = image::Limits::default();
-    limits.max_alloc = Some(MAX_TEXELS as u64 * 12);
-    reader.limits(limits);
-    let image = reader
-        .decode()
-        .map_err(|e| Error::format(path, format!("reading Radiance HDR: {e}")))?
-        .into_rgb32f();
-    let (width, height) = (image.width() as usize, image.height() as usize);
+/// Reads a Radiance RGBE (.hdr) image, top row first: its header first (at most
+/// [`HEADER_CAP`] bytes), then, once its size is known to fit and the file not to be
+/// longer than such a map can take, its scan lines straight into the texels.
+fn read_hdr(path: &Path) -> Result<Decoded> {
+    use image::ImageDecoder as _;
+    let (file, length) = open_regular(path, "environment map (Radiance .hdr)")?;
+    let bad = |e: image::ImageError| hdr_error(path, e);
+    let left = Cell::new(HEADER_CAP);
+    let reader = Allowance {
+        inner: std::io::BufReader::new(file),
+        left: &left,
+    };
+    let decoder = image::codecs::hdr::HdrDecoder::new(reader).map_err(bad)?;
+    let (w, h) = decoder.dimensions();
+    let (width, height) = (w as usize, h as usize);
     check_texel_count(path, width, height)?;
-    let texels = image.pixels().map(|p| Vec3::from(p.0)).collect();
-    Ok((width, height, texels))
+    // A scan line takes at most 4 bytes a texel flat, or 4 + 4·(W + ⌈W/128⌉) run-length
+    // encoded; 8 + 8·W covers both.
+    let most = (height as u64)
+        .checked_mul(8 + 8 * width as u64)
+        .and_then(|p| p.checked_add(HEADER_CAP));
+    check_length(path, length, most, width, height)?;
+    left.set(most.unwrap_or(0));
+    let mut texels = vec![Vec3::ZERO; width * height];
+    // The decoder writes each texel as three native-endian f32, which is a Vec3's layout.
+    decoder
+        .read_image(bytemuck::cast_slice_mut(&mut texels))
+        .map_err(bad)?;
+    Ok(Decoded {
+        width,
+        height,
+        texels,
+        pfm_scale: None,
+    })
 }
 
-/// Reads a PFM file, `PF` (RGB) or `Pf` (grey), with the project's one PFM decoder.
-fn read_pfm(path: &Path) -> Result<(usize, usize, Vec<Vec3>)> {
-    let bytes = read_bytes_capped(path, PFM_FILE_CAP, "environment map (PFM)")?;
-    let (width, height, texels) = decode_pfm(path, &bytes, PfmChannels::ColourOrGrey)?;
-    check_texel_count(path, width, height)?;
-    Ok((width, height, texels))
+/// The Radiance reader's error. Its "unsupported" errors quote the header's `FORMAT` value
+/// (20 bytes of a file that may not be a map at all), so they are named, not shown.
+fn hdr_error(path: &Path, e: image::ImageError) -> Error {
+    let what = match e {
+        image::ImageError::Unsupported(_) => {
+            "a variant this reader does not take (expected `FORMAT=32-bit_rle_rgbe` and a size line such as `-Y 512 +X 1024`)".to_string()
+        }
+        other => decoder_message(&other.to_string()),
+    };
+    Error::format(path, format!("reading Radiance HDR: {what}"))
+}
+
+/// A decoder library's message as an error shows it: control characters escaped (a
+/// library may quote text from a header), and cut at 200 characters.
+fn decoder_message(message: &str) -> String {
+    let escaped: String = message
+        .chars()
+        .flat_map(|c| {
+            let shown: Vec<char> = if c.is_control() {
+                c.escape_default().collect()
+            } else {
+                vec![c]
+            };
+            shown
+        })
+        .collect();
+    match escaped.char_indices().nth(200) {
+        Some((at, _)) => format!("{}…", &escaped[..at]),
+        None => escaped,
+    }
+}
+
+/// Reads a PFM file, `PF` (RGB) or `Pf` (grey), with the project's one PFM reader: the
+/// header first, its size checked, then the rows.
+fn read_pfm(path: &Path) -> Result<Decoded> {
+    let (width, height, texels, scale) = read_pfm_bounded(
+        path,
+        PfmChannels::ColourOrGrey,
+        "environment map (PFM)",
+        |w, h| check_texel_count(path, w, h),
+    )?;
+    Ok(Decoded {
+        width,
+        height,
+        texels,
+        pfm_scale: (scale.abs() != 1.0).then_some(scale),
+    })
 }
 
 #[cfg(test)]

@@ -78,7 +78,8 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, name: &str) -> Result<MitsubaEx
         env_files.push(match light {
             Light::Environment(e) => {
                 let file = format!("{name}-env{i}.pfm");
-                let (w, h, texels) = mitsuba_texels(e);
+                let (w, h, texels) =
+                    mitsuba_texels(e).map_err(|e| e.within(&format!("lights[{i}]")))?;
                 crate::film::write_pfm(&dir.join(&file), w, h, &texels)?;
                 maps.push(dir.join(&file));
                 Some(file)
@@ -323,7 +324,8 @@ fn medium_xml(x: &mut String, medium: &Medium, grid_file: &str, frame: ExportFra
     let _ = writeln!(x, "        <volume type=\"gridvolume\" name=\"sigma_t\">");
     let _ = writeln!(
         x,
-        "            <string name=\"filename\" value=\"{grid_file}\"/>"
+        "            <string name=\"filename\" value=\"{}\"/>",
+        xml_attribute(grid_file)
     );
     let filter = match medium.reconstruction() {
         Reconstruction::Trilinear => "trilinear",
@@ -402,7 +404,11 @@ fn clip_obj(region: &crate::medium::ClipRegion, frame: ExportFrame) -> String {
 /// pushed out by [`CUBE_MARGIN`] as the cube's are.
 fn clip_mesh_xml(x: &mut String, file: &str) {
     let _ = writeln!(x, "    <shape type=\"obj\">");
-    let _ = writeln!(x, "        <string name=\"filename\" value=\"{file}\"/>");
+    let _ = writeln!(
+        x,
+        "        <string name=\"filename\" value=\"{}\"/>",
+        xml_attribute(file)
+    );
     let _ = writeln!(x, "        <boolean name=\"face_normals\" value=\"true\"/>");
     let _ = writeln!(x, "        <bsdf type=\"null\"/>");
     let _ = writeln!(x, "        <ref name=\"interior\" id=\"medium\"/>");
@@ -491,7 +497,11 @@ fn emitter_xml(x: &mut String, light: &Light, env_file: Option<&str>, frame: Exp
         Light::Environment(e) => {
             let _ = writeln!(x, "    <emitter type=\"envmap\">");
             let file = env_file.expect("an environment's map file");
-            let _ = writeln!(x, "        <string name=\"filename\" value=\"{file}\"/>");
+            let _ = writeln!(
+                x,
+                "        <string name=\"filename\" value=\"{}\"/>",
+                xml_attribute(file)
+            );
             let _ = writeln!(x, "        <transform name=\"to_world\">");
             let [c0, c1, c2] = e.to_world_columns();
             let _ = writeln!(
@@ -514,11 +524,31 @@ fn emitter_xml(x: &mut String, light: &Light, env_file: Option<&str>, frame: Exp
 /// finer (`k` ≤ 4, at most 4096 columns) with `k·H + 1` rows, each the nearest volphot
 /// texel at its own centre: the two reconstructions then differ only in bands of a
 /// `k`-th of a texel at texel edges.
-fn mitsuba_texels(env: &super::EnvironmentLight) -> (usize, usize, Vec<Vec3>) {
+///
+/// A texel that the scale makes infinite is refused, naming `scale` (loading keeps every
+/// environment within 1e20 W/m²/sr, so only a light built otherwise can get here).
+fn mitsuba_texels(env: &super::EnvironmentLight) -> Result<(usize, usize, Vec<Vec3>)> {
     let map = env.map();
     let (w, h) = (map.width(), map.height());
     let k = (4096 / w).clamp(1, 4);
     let (wk, hk) = (w * k, h * k + 1);
+    if let Some(i) = map
+        .texels()
+        .iter()
+        .position(|t| !(*t * env.scale()).is_finite())
+    {
+        return Err(Error::parameter(
+            "scale",
+            format!("{:?}", env.scale().to_array()),
+            format!(
+                "a scale that keeps every texel finite for the Mitsuba export: texel (column {}, row {}) = {:?} becomes {:?}",
+                i % w,
+                i / w,
+                map.texels()[i].to_array(),
+                (map.texels()[i] * env.scale()).to_array()
+            ),
+        ));
+    }
     let texels = (0..hk)
         .flat_map(|row| {
             let v = row as f64 / (hk - 1) as f64;
@@ -526,7 +556,25 @@ fn mitsuba_texels(env: &super::EnvironmentLight) -> (usize, usize, Vec<Vec3>) {
             (0..wk).map(move |col| map.texels()[source * w + col / k] * env.scale())
         })
         .collect();
-    (wk, hk, texels)
+    Ok((wk, hk, texels))
+}
+
+/// `text` as the value of an XML attribute in double quotes: `&`, `<`, `>`, `"` and `'`
+/// as entities (a scene file may be named `a"b<c>&d.toml`, and the export's file names
+/// come from it).
+fn xml_attribute(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// One row of a 3×3 block of a Mitsuba `matrix` value.
@@ -887,5 +935,81 @@ mod tests {
         let spot_xml = std::fs::read_to_string(&spot.scene).unwrap();
         assert!(!spot_xml.contains("hide_emitters"));
         assert!(spot.maps.is_empty());
+    }
+
+    /// Checks that `xml` is well formed as far as the export writes it: tags balanced,
+    /// every attribute value double-quoted without `<`, `"` or a bare `&`.
+    fn well_formed(xml: &str) -> std::result::Result<(), String> {
+        let mut open: Vec<&str> = Vec::new();
+        let mut rest = xml;
+        while let Some(at) = rest.find('<') {
+            rest = &rest[at + 1..];
+            if let Some(comment) = rest.strip_prefix("!--") {
+                let end = comment.find("-->").ok_or("unclosed comment")?;
+                rest = &comment[end + 3..];
+                continue;
+            }
+            let end = rest.find('>').ok_or("unclosed tag")?;
+            let tag = &rest[..end];
+            rest = &rest[end + 1..];
+            if let Some(name) = tag.strip_prefix('/') {
+                if open.pop() != Some(name) {
+                    return Err(format!("</{name}> closes nothing open"));
+                }
+                continue;
+            }
+            let (body, empty) = match tag.strip_suffix('/') {
+                Some(b) => (b, true),
+                None => (tag, false),
+            };
+            let name = body.split_whitespace().next().ok_or("empty tag")?;
+            let mut attributes = body[name.len()..].trim();
+            while !attributes.is_empty() {
+                let (_, after) = attributes
+                    .split_once("=\"")
+                    .ok_or(format!("attribute in <{tag}>"))?;
+                let close = after.find('"').ok_or("unclosed value")?;
+                let value = &after[..close];
+                let entities = ["&amp;", "&lt;", "&gt;", "&quot;", "&apos;"];
+                let bare = value
+                    .match_indices('&')
+                    .any(|(i, _)| !entities.iter().any(|e| value[i..].starts_with(e)));
+                if value.contains('<') || bare {
+                    return Err(format!("value `{value}` in <{tag}>"));
+                }
+                attributes = after[close + 1..].trim();
+            }
+            if !empty {
+                open.push(name);
+            }
+        }
+        if open.is_empty() {
+            Ok(())
+        } else {
+            Err(format!("unclosed {open:?}"))
+        }
+    }
+
+    /// A scene file named `a"b<c>&d.toml` exports as `a"b<c>&d.xml` whose file names are
+    /// escaped attribute values: the XML stays well formed.
+    #[test]
+    fn file_names_with_markup_characters_are_escaped_in_the_xml() {
+        let scene = test_util::scene(
+            "[volume]\nphantom = { name = \"sphere\", resolution = [4, 4, 4] }\n[three_point]\n[[lights]]\ntype = \"sky\"\n[clip]\nplane = { normal = [1, 0, 0], offset = 0.5 }\n",
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let name = "a\"b<c>&d";
+        let files = export_mitsuba(&scene, dir.path(), name).unwrap();
+        let xml = std::fs::read_to_string(&files.scene).unwrap();
+        well_formed(&xml).unwrap_or_else(|e| panic!("{e}:\n{xml}"));
+        for file in [
+            "a&quot;b&lt;c&gt;&amp;d.vol",
+            "a&quot;b&lt;c&gt;&amp;d-env3.pfm",
+            "a&quot;b&lt;c&gt;&amp;d-clip.obj",
+        ] {
+            assert!(xml.contains(&format!("value=\"{file}\"")), "{file}:\n{xml}");
+        }
+        assert!(dir.path().join("a\"b<c>&d-env3.pfm").is_file());
+        assert!(well_formed("<a b=\"x\"y\"/>").is_err() && well_formed("<a b=\"&\"/>").is_err());
     }
 }

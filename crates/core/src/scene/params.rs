@@ -16,6 +16,7 @@ use crate::medium::{
     ClipParams, ClipSpace, DEFAULT_BRICK_SIZE, MappingKind, Medium, MediumSettings, Phase,
     SigmaMapping, SigmaParams, TransferFunction, TransferParams, ViewFrame,
 };
+use crate::util::confined;
 use crate::volume::{
     ByteOrder, DatasetOverrides, DicomInput, FileRequest, Normalization, PhantomParams, Placement,
     RawLayout, Reconstruction, SearchPath, Volume, VolumeSource, VoxelType, is_nifti, load_dataset,
@@ -472,7 +473,7 @@ pub fn load_volume(v: &VolumeParams, base: &Path, search: &SearchPath) -> Result
         )
         .map_err(|e| e.within("volume")),
         VolumeChoice::File(file) => {
-            let path = base.join(file);
+            let path = confined(base, file, "the scene's folder")?;
             let raw_layout = v.dims.map(|dims| RawLayout {
                 dims,
                 voxel: v.voxel.unwrap_or(VoxelType::U8),
@@ -489,7 +490,7 @@ pub fn load_volume(v: &VolumeParams, base: &Path, search: &SearchPath) -> Result
             })
         }
         VolumeChoice::Dicom(input) => read_dicom_volume(
-            &input.resolved(base),
+            &confined_dicom(input, base)?,
             v.series.as_deref(),
             v.resample,
             &FileRequest {
@@ -518,6 +519,18 @@ pub fn load_volume(v: &VolumeParams, base: &Path, search: &SearchPath) -> Result
             }
         }
     }
+}
+
+/// A DICOM folder or list of files named by a scene, resolved against its folder `base`
+/// and confined to it as every file a scene names is ([`confined`]).
+fn confined_dicom(input: &DicomInput, base: &Path) -> Result<DicomInput> {
+    let inside = |p: &PathBuf| confined(base, p, "the scene's folder");
+    Ok(match input {
+        DicomInput::Folder(p) => DicomInput::Folder(inside(p)?),
+        DicomInput::Files(files) => {
+            DicomInput::Files(files.iter().map(inside).collect::<Result<_>>()?)
+        }
+    })
 }
 
 /// Millimetres per world unit: the volume's physical size (its placement spacing, else the

@@ -6,7 +6,7 @@
 use std::fs::File;
 use std::io::Read;
 use std::os::unix::fs::OpenOptionsExt as _;
-use std::path::Path;
+use std::path::{Component, Path, PathBuf};
 
 use crate::error::{Error, Result};
 
@@ -120,6 +120,54 @@ pub fn read_text_capped(path: &Path, cap: u64, what: &str) -> Result<String> {
             format!("is not UTF-8 text (byte {at} is not valid UTF-8); expected a {what}"),
         )
     })
+}
+
+/// The file that a document (a scene, a header, a pbrt file) in folder `base` names as
+/// `named`. The name as written may lead anywhere — it is there for whoever reads the
+/// document — but symbolic links must not carry a name that the text places inside the
+/// folder out of it: a scene's folder, copied or downloaded, could otherwise hold
+/// `sky.hdr -> ~/.ssh/id_rsa` and have that file read (and parts of it shown in an error,
+/// or exported). `folder` names the folder in the error ("the scene's folder"). A name
+/// that does not exist is returned joined (opening it says so).
+pub fn confined(base: &Path, named: &Path, folder: &str) -> Result<PathBuf> {
+    let path = base.join(named);
+    let base = if base.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base
+    };
+    let (Ok(root), Ok(real)) = (std::fs::canonicalize(base), std::fs::canonicalize(&path)) else {
+        return Ok(path);
+    };
+    let written = lexically_normal(&root.join(named));
+    if !written.starts_with(&root) || real.starts_with(&root) {
+        return Ok(path);
+    }
+    Err(Error::format(
+        &path,
+        format!(
+            "leads out of {folder} {} through a symbolic link (to {}); a file named inside the folder is read only inside it. Name the file by its own path (`{}`) or copy it into the folder",
+            root.display(),
+            real.display(),
+            real.display()
+        ),
+    ))
+}
+
+/// `path` with `.` dropped and each `..` taking off the component before it, without
+/// asking the file system (so links are not followed): where the text of a name points.
+fn lexically_normal(path: &Path) -> PathBuf {
+    let mut out = PathBuf::new();
+    for component in path.components() {
+        match component {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    out
 }
 
 /// Up to `n` leading bytes of `bytes`, escaped (`\x00`, `\n`): enough to show what a file

@@ -10,7 +10,8 @@ pub use checksum::{cache_dir, sha256_bytes, sha256_cached, sha256_content, sha25
 pub use fsutil::{hostname, is_stale_temp, temp_sibling, write_atomic, write_atomic_with};
 pub(crate) use input::file_kind;
 pub use input::{
-    TEXT_INPUT_CAP, byte_size, escaped_prefix, open_regular, read_bytes_capped, read_text_capped,
+    TEXT_INPUT_CAP, byte_size, confined, escaped_prefix, open_regular, read_bytes_capped,
+    read_text_capped,
 };
 pub(crate) use memory::WORKING_BYTES_PER_VOXEL;
 pub use memory::{memory_budget_bytes, peak_memory_bytes, process_cpu_seconds};

@@ -189,11 +189,13 @@ impl Splicer {
                 self.out.push(s.clone());
                 continue;
             }
-            let included = s
-                .file
-                .parent()
-                .unwrap_or(Path::new("."))
-                .join(s.type_name()?);
+            let folder = s.file.parent().unwrap_or(Path::new("."));
+            let included = crate::util::confined(
+                folder,
+                Path::new(s.type_name()?),
+                "the including file's folder",
+            )
+            .map_err(|e| s.error(e.to_string()))?;
             self.sites.push(s.clone());
             if self.sites.len() > MAX_INCLUDE_DEPTH {
                 let message = format!("Includes nest more than {MAX_INCLUDE_DEPTH} deep");
@@ -889,7 +891,9 @@ fn raw_volume(
         brick_size: DEFAULT_BRICK_SIZE,
         ..VolumeParams::default()
     };
-    let path = s.file.parent().unwrap_or(Path::new(".")).join(&raw);
+    let folder = s.file.parent().unwrap_or(Path::new("."));
+    let path = crate::util::confined(folder, Path::new(&raw), "the pbrt file's folder")
+        .map_err(|e| s.error(format!("\"string rawfile\": {e}")))?;
     // A device or FIFO would reach the render as "0 bytes" (or block it): refuse it here.
     let exists = match open_regular(&path, "RAW volume file") {
         Ok(_) => true,
@@ -1025,7 +1029,9 @@ fn pgm_transfer(
     output_dir: &Path,
     notes: &mut Vec<String>,
 ) -> Result<PathBuf> {
-    let path = s.file.parent().unwrap_or(Path::new(".")).join(file);
+    let folder = s.file.parent().unwrap_or(Path::new("."));
+    let path = crate::util::confined(folder, Path::new(file), "the pbrt file's folder")
+        .map_err(|e| s.error(format!("\"string transferfile\": {e}")))?;
     match TransferFunction::from_pgm(&path) {
         Ok(_) => {}
         Err(Error::Io { error, .. }) if error.kind() == std::io::ErrorKind::NotFound => {

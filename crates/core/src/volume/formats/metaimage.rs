@@ -47,7 +47,11 @@ pub fn read(path: &Path) -> Result<LoadedVoxels> {
         (path.to_path_buf(), consumed)
     } else {
         let folder = path.parent().unwrap_or(Path::new(""));
-        (folder.join(&data_field.value), 0)
+        let named = Path::new(&data_field.value);
+        (
+            crate::util::confined(folder, named, "the header's folder")?,
+            0,
+        )
     };
 
     let count = check_dims(path, dims)?;

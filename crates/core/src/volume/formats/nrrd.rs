@@ -334,10 +334,13 @@ impl Header {
             return Err(f.invalid(path, "0 (skipping lines before the data is not supported)"));
         }
 
-        let data_file = fields.get("datafile").map(|f| {
-            let folder = path.parent().unwrap_or(Path::new(""));
-            folder.join(&f.value)
-        });
+        let data_file = fields
+            .get("datafile")
+            .map(|f| {
+                let folder = path.parent().unwrap_or(Path::new(""));
+                crate::util::confined(folder, Path::new(&f.value), "the header's folder")
+            })
+            .transpose()?;
 
         Ok(Header {
             voxel,

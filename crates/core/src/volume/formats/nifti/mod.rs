@@ -103,20 +103,23 @@ fn pair_image(header_path: &Path) -> Result<PathBuf> {
     let stem = &name[..stem_len];
     let candidates =
         [".img", ".img.gz"].map(|ext| header_path.with_file_name(format!("{stem}{ext}")));
-    candidates
-        .iter()
-        .find(|p| p.exists())
-        .cloned()
-        .ok_or_else(|| {
-            Error::format(
-                header_path,
-                format!(
-                    "the header of a .hdr/.img pair, but neither {} nor {} exists beside it",
-                    candidates[0].display(),
-                    candidates[1].display()
-                ),
-            )
-        })
+    let found = candidates.iter().find(|p| p.exists()).ok_or_else(|| {
+        Error::format(
+            header_path,
+            format!(
+                "the header of a .hdr/.img pair, but neither {} nor {} exists beside it",
+                candidates[0].display(),
+                candidates[1].display()
+            ),
+        )
+    })?;
+    // Beside the header, as if the header named it: a link must not lead it elsewhere.
+    let folder = header_path.parent().unwrap_or(Path::new(""));
+    crate::util::confined(
+        folder,
+        Path::new(found.file_name().unwrap_or_default()),
+        "the header's folder",
+    )
 }
 
 /// Values times scl_slope plus scl_inter (in f64, then back to f32).
