@@ -7,5 +7,5 @@ mod sobol;
 
 pub use geometry::{Aabb, Frame, Ray, Sphere};
 pub use rng::{Domain, Rng, mix64};
-pub use sampling::{INV_4PI, concentric_disc, cosine_hemisphere, uniform_sphere};
+pub use sampling::{INV_4PI, concentric_disc, cosine_hemisphere, uniform_cone, uniform_sphere};
 pub(crate) use sobol::scrambled_sobol;

@@ -247,8 +247,8 @@ impl AreaLight {
         if !self.can_aim_at(target) {
             return self.power();
         }
-        let (axis, cos_max) = cone_towards(self.centre, target);
-        self.radiance * self.area * axis.dot(self.frame.w) * cone_solid_angle(cos_max)
+        let (axis, one_minus_cos) = cone_towards(self.centre, target);
+        self.radiance * self.area * axis.dot(self.frame.w) * cone_solid_angle(one_minus_cos)
     }
 
     /// A photon aimed at `target`: origin uniform on the surface, direction uniform in the
@@ -263,30 +263,28 @@ impl AreaLight {
             return (self.emit(rng), 1.0);
         }
         let origin = self.sample_point(rng.uniform2());
-        let (axis, cos_max) = cone_towards(origin, target);
-        let direction = Frame::from_w(axis).to_world(uniform_cone(rng.uniform2(), cos_max));
+        let (axis, one_minus_cos) = cone_towards(origin, target);
+        let direction = Frame::from_w(axis).to_world(uniform_cone(rng.uniform2(), one_minus_cos));
         let cos_theta = direction.dot(self.frame.w).max(0.0);
-        let (centre_axis, centre_cos_max) = cone_towards(self.centre, target);
-        let relative = cos_theta * cone_solid_angle(cos_max)
-            / (centre_axis.dot(self.frame.w) * cone_solid_angle(centre_cos_max));
+        let (centre_axis, centre_one_minus_cos) = cone_towards(self.centre, target);
+        let relative = cos_theta * cone_solid_angle(one_minus_cos)
+            / (centre_axis.dot(self.frame.w) * cone_solid_angle(centre_one_minus_cos));
         (Ray::new(origin, direction), relative)
     }
 }
 
-/// The unit axis from `from` to `target`'s centre and the cosine of the half-angle of the
-/// cone the sphere subtends (`from` outside the sphere).
+/// The unit axis from `from` to `target`'s centre and `1 − cos` of the half-angle of the
+/// cone the sphere subtends (`from` outside the sphere), as `sin²/(1 + cos)`.
 fn cone_towards(from: Vec3, target: &Sphere) -> (Vec3, f32) {
     let d = target.centre - from;
     let distance = d.length();
     let sin2 = (target.radius / distance).powi(2).min(1.0);
-    (d / distance, (1.0 - sin2).sqrt())
+    (d / distance, sin2 / (1.0 + (1.0 - sin2).sqrt()))
 }
 
-/// The solid angle of a cone, `2π(1 − cos α)`, written `2π·sin²α/(1 + cos α)` so a narrow
-/// cone keeps its digits.
-fn cone_solid_angle(cos_max: f32) -> f32 {
-    let sin2 = (1.0 - cos_max * cos_max).max(0.0);
-    2.0 * PI * sin2 / (1.0 + cos_max)
+/// The solid angle of a cone whose half-angle has `1 − cos = one_minus_cos`.
+fn cone_solid_angle(one_minus_cos: f32) -> f32 {
+    2.0 * PI * one_minus_cos
 }
 
 /// A frame around the normal `n` whose `v` axis is `up` projected into the plane.

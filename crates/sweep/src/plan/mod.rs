@@ -65,8 +65,7 @@ use file::{ExperimentFile, QualityPreset};
 pub(crate) use cells::CellSpec;
 pub(crate) use file::{
     CompareKind, CompareSpec, PairSpec, PlotSpec, ReferenceMethod, ReferenceSpec, ReportSpec,
-    SheetLayer,
-    SheetSpec,
+    SheetLayer, SheetSpec,
 };
 pub(crate) use keys::{flatten_set, flatten_space, short_key, toml_to_json, value_text};
 pub(crate) use kind::load_scene;
