@@ -72,7 +72,7 @@ pub enum RenderWarning {
         key: PhotonKey,
     },
     /// A stored-photon target the tracer gave up on: it emitted the most a round may
-    /// ([`crate::photon::MAX_EMITTED`]) and the map still holds fewer.
+    /// ([`MAX_PHOTONS`]) and the map still holds fewer.
     TargetMissed {
         /// Photons stored in the map.
         stored: u64,

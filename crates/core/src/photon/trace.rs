@@ -23,7 +23,7 @@ use crate::control::Control;
 use crate::error::Result;
 use crate::math::{Domain, Ray, Rng, Sphere};
 use crate::medium::{FreePath, Medium};
-use crate::scene::Light;
+use crate::scene::{Light, MAX_PHOTONS};
 
 /// A stored photon.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -253,7 +253,9 @@ impl PathRecord for Vec<Photon> {
 /// fill a map to a size rather than shoot a count), the first round emits
 /// `settings.photons`; while the map holds fewer than the target, the next round traces
 /// again from the start with the count the last round's stored fraction says reaches it
-/// (5 % more, at least twice as many when nothing was stored), up to [`MAX_EMITTED`].
+/// (5 % more, at least twice as many when nothing was stored), up to [`MAX_PHOTONS`] (the bound of
+/// `volume_photons`): a scene whose lights barely reach the medium stops there with fewer
+/// stored than the target, and a render warning says so.
 /// Every round is an ordinary trace of its count, so the map is the one that count gives —
 /// powers still divided by each light's emitted count (§7.1.2), independent of the
 /// threads — and [`PhotonStats::rounds`] says how many it took.
@@ -287,15 +289,10 @@ pub fn trace(
     }
 }
 
-/// The most photons a stored target may emit in one round (the same bound as
-/// `volume_photons`): a scene whose lights barely reach the medium stops there with fewer
-/// stored than the target (a render warning says so).
-pub const MAX_EMITTED: u64 = crate::scene::MAX_PHOTONS;
-
 /// The next round's emitted count for a stored `target`, or `None` when this round's
-/// `stored` reaches it or `emitted` is already [`MAX_EMITTED`].
+/// `stored` reaches it or `emitted` is already [`MAX_PHOTONS`].
 fn next_emission(emitted: u64, stored: u64, target: u64) -> Option<u64> {
-    if stored >= target || emitted >= MAX_EMITTED {
+    if stored >= target || emitted >= MAX_PHOTONS {
         return None;
     }
     let predicted = if stored == 0 {
@@ -305,7 +302,7 @@ fn next_emission(emitted: u64, stored: u64, target: u64) -> Option<u64> {
         // rarely leaves it short; never fewer than one more photon.
         (emitted as f64 * target as f64 / stored as f64 * 1.05).ceil() as u64
     };
-    Some(predicted.max(emitted + 1).min(MAX_EMITTED))
+    Some(predicted.max(emitted + 1).min(MAX_PHOTONS))
 }
 
 /// One round of [`trace`]: `settings.photons` emitted.
@@ -782,8 +779,8 @@ ground = 0.7"#
         assert_eq!(next_emission(1_000, 100, 1_500), Some(15_750));
         assert_eq!(next_emission(1_000, 0, 1_500), Some(2_000));
         assert_eq!(next_emission(1_000, 1_499, 1_500), Some(1_051));
-        assert_eq!(next_emission(MAX_EMITTED - 5, 1, 1_500), Some(MAX_EMITTED));
-        assert_eq!(next_emission(MAX_EMITTED, 1, 1_500), None);
+        assert_eq!(next_emission(MAX_PHOTONS - 5, 1, 1_500), Some(MAX_PHOTONS));
+        assert_eq!(next_emission(MAX_PHOTONS, 1, 1_500), None);
     }
 
     #[test]
