@@ -3,6 +3,7 @@
 # an exported scene with Mitsuba and with volphot and print the time-to-error table.
 #
 #   scripts/peer-mitsuba.sh [SCENE.toml] [sweep bench options…]
+#   scripts/peer-mitsuba.sh --install      # install only; prints the environment's python
 #   scripts/peer-mitsuba.sh experiments/scenes/phantom-head.toml --resolution 128x128 --json peer.json
 #
 # Default scene: experiments/scenes/phantom-head.toml at 128×128. Options are those of
@@ -18,6 +19,11 @@ VENV="${VOLPHOT_PEER_VENV:-${XDG_CACHE_HOME:-$HOME/.cache}/volphot/mitsuba-venv}
 MITSUBA_VERSION="3.9.1"
 
 log() { echo "peer-mitsuba: $*" >&2; }
+
+INSTALL_ONLY=0
+if [ "${1:-}" = "--install" ]; then
+  INSTALL_ONLY=1; shift
+fi
 
 # The scene is checked before anything is installed (a mistyped path used to cost a
 # Mitsuba install, and as root a Debian package, before `sweep` said it was missing).
@@ -42,6 +48,12 @@ if [ "$(id -u)" -eq 0 ] && command -v apt-get >/dev/null && ! ls /usr/lib/*-linu
   (apt-get install -y --no-install-recommends libllvm19 >/dev/null 2>&1 \
     || (apt-get update >/dev/null 2>&1 && apt-get install -y --no-install-recommends libllvm19 >/dev/null 2>&1)) \
     || log "libllvm19 not available: Mitsuba renders with scalar_rgb"
+fi
+
+if [ "$INSTALL_ONLY" -eq 1 ]; then
+  # For the tests that run Mitsuba's own scripts (scripts/peer_envmap.py): the interpreter.
+  echo "$VENV/bin/python"
+  exit 0
 fi
 
 SWEEP="${VOLPHOT_SWEEP_BIN:-}"

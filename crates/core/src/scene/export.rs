@@ -521,9 +521,13 @@ fn emitter_xml(x: &mut String, light: &Light, env_file: Option<&str>, frame: Exp
 /// Mitsuba's `envmap` reads it. volphot looks texels up nearest, row `j` covering
 /// `θ ∈ [j, j + 1]·π/H`; Mitsuba interpolates bilinearly with row `j` centred at
 /// `θ = j·π/(H − 1)` (and columns centred as volphot's). So the map is written `k` times
-/// finer (`k` ≤ 4, at most 4096 columns) with `k·H + 1` rows, each the nearest volphot
-/// texel at its own centre: the two reconstructions then differ only in bands of a
-/// `k`-th of a texel at texel edges.
+/// finer (`k` ≤ 4, at most 4096 columns) with `k·H + 1` rows, each the volphot texel at its
+/// own centre — and a row that falls exactly on the edge of two texel rows the mean of the
+/// two: Mitsuba then blends from one texel row to the other symmetrically about the edge,
+/// over a `k`-th of a texel on each side, and each band's integral and centroid are
+/// volphot's. (The nearest texel there, the lower one, put the whole blend on the zenith
+/// side: the map moved `1/(2k)` of a texel towards the zenith, and lost light wherever a
+/// bright row lay below a dark one — 0.9 % of a map with a bright patch.)
 ///
 /// A texel that the scale makes infinite is refused, naming `scale` (loading keeps every
 /// environment within 1e20 W/m²/sr, so only a light built otherwise can get here).
@@ -549,11 +553,19 @@ fn mitsuba_texels(env: &super::EnvironmentLight) -> Result<(usize, usize, Vec<Ve
             ),
         ));
     }
+    let texel = |row: usize, col: usize| map.texels()[row * w + col / k] * env.scale();
+    // Row `r` lies at `r/k` texel rows from the zenith: inside texel row `r/k`, or on the
+    // edge of rows `r/k − 1` and `r/k` when `k` divides it (the poles excepted).
     let texels = (0..hk)
-        .flat_map(|row| {
-            let v = row as f64 / (hk - 1) as f64;
-            let source = ((v * h as f64) as usize).min(h - 1);
-            (0..wk).map(move |col| map.texels()[source * w + col / k] * env.scale())
+        .flat_map(|r| {
+            let (source, on_edge) = ((r / k).min(h - 1), r % k == 0 && r > 0 && r < hk - 1);
+            (0..wk).map(move |col| {
+                if on_edge {
+                    (texel(source - 1, col) + texel(source, col)) * 0.5
+                } else {
+                    texel(source, col)
+                }
+            })
         })
         .collect();
     Ok((wk, hk, texels))
