@@ -434,6 +434,11 @@ pub(crate) struct TuneArgs {
 pub(crate) struct ReportArgs {
     /// Output folder of a run.
     pub(crate) dir: PathBuf,
+    /// Change only where the explorer in `report.html` opens, to the folder's
+    /// `experiment.toml` `[report] pair`: a clone holds a committed study's page and pixel
+    /// data but not the cells' data, so the rest of its report cannot be rebuilt there.
+    #[arg(long)]
+    pub(crate) explorer_opening: bool,
 }
 
 /// `sweep status`.

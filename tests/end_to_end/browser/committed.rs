@@ -41,6 +41,7 @@ const CHECK: &str = r#"(async () => {
     renders: hasExplorer && window.explorer ? window.explorer.renders : 0,
     explorerErrors: hasExplorer && window.explorer ? window.explorer.errors : [],
     pair: hasExplorer && window.explorer ? [window.explorer.state.a, window.explorer.state.b].map((i) => window.explorer.manifest.cells[i].coords) : [],
+    pairValues: hasExplorer && window.explorer ? [window.explorer.state.a, window.explorer.state.b].map((i) => Object.fromEntries(window.explorer.manifest.axes.map((a, k) => [a.key, a.values[window.explorer.manifest.cells[i].coords[k]]]))) : [],
     cards: Array.from(document.querySelectorAll('.card')).map((c) => ({
       id: c.id,
       claims: Array.from(c.querySelectorAll('.claims li')).map((l) => l.textContent.trim()),
@@ -149,6 +150,7 @@ fn committed_reports_open_from_a_clone_in_chromium() {
             if page.parent().unwrap().ends_with("single_vs_multiple-paper") {
                 assert_opens_on_its_pair(&check);
             }
+            assert_opens_on_the_named_pair(page, &check);
         }
     }
     eprintln!(
@@ -212,6 +214,46 @@ fn assert_opens_on_its_pair(check: &Value) {
     let (a, b) = (pair[0].as_array().unwrap(), pair[1].as_array().unwrap());
     let differing = a.iter().zip(b).filter(|(x, y)| x != y).count();
     assert_eq!(differing, 1, "A and B differ in {differing} axes: {check}");
+}
+
+/// The explorer opens on the pair its study names (`[report] pair` in the study's
+/// `experiment.toml`): the first cell has every value of `a`, the second every value of `b`.
+/// A study that names no pair fails: each was made to compare something.
+fn assert_opens_on_the_named_pair(page: &Path, check: &Value) {
+    let experiment = page.with_file_name("experiment.toml");
+    let text = std::fs::read_to_string(&experiment)
+        .unwrap_or_else(|e| panic!("{}: {e}", experiment.display()));
+    let table: toml::Table = text.parse().unwrap();
+    let pair = table
+        .get("report")
+        .and_then(|r| r.get("pair"))
+        .unwrap_or_else(|| panic!("{} names no [report] pair", experiment.display()));
+    let opened = check["pairValues"]
+        .as_array()
+        .expect("the explorer's first pair");
+    for (side, cell) in ["a", "b"].iter().zip(opened) {
+        for (key, wanted) in pair[side].as_table().unwrap() {
+            let shown = cell[key.as_str()].as_str().unwrap_or_else(|| {
+                panic!(
+                    "{}: the explorer has no axis {key}: {check}",
+                    page.display()
+                )
+            });
+            // The page shows a value as text: a number, flag or list as JSON, else the text.
+            let shown: Value =
+                serde_json::from_str(shown).unwrap_or_else(|_| Value::String(shown.into()));
+            let wanted: Value = serde_json::to_value(wanted).unwrap();
+            let same = match (shown.as_f64(), wanted.as_f64()) {
+                (Some(x), Some(y)) => (x - y).abs() <= 1e-6 * y.abs().max(1.0),
+                _ => shown == wanted,
+            };
+            assert!(
+                same,
+                "{}: the explorer opens with {side}.{key} = {shown}, the study's pair names {wanted}",
+                page.display()
+            );
+        }
+    }
 }
 
 /// The probe for Firefox: the same check, printed through `dump()`.

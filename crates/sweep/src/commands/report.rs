@@ -12,6 +12,12 @@ pub(crate) fn run(args: &ReportArgs) -> Result<ExitCode> {
     let out = OutputDir::new(&args.dir);
     // Only an output folder: nothing (not even a lock file) is written anywhere else.
     read_plan(&out)?;
+    if args.explorer_opening {
+        let _lock = lock_folder(&out, false)?;
+        let path = crate::report::reopen_explorer(&out)?;
+        eprintln!("report: {} opens on the study's pair", path.display());
+        return Ok(ExitCode::SUCCESS);
+    }
     // Before the lock file: a folder that would lose results is left exactly as it was.
     crate::report::refuse_to_lose_recorded_cells(&out)?;
     // Hold a shared lock: a full run writing this folder would conflict.

@@ -113,8 +113,16 @@ fn refresh_image_stats(dir: &Path, record: &mut CellRecord, film: &Film) -> Resu
 
 /// Whether a cell's axis values match a `where` table (numbers compare by value).
 pub(crate) fn matches(c: &PlannedCell, filter: &toml::Table) -> bool {
+    matches_values(filter, |k| axis_value(c, k))
+}
+
+/// Whether the axis values `value(key)` pass `filter` (see [`matches()`]).
+pub(crate) fn matches_values(
+    filter: &toml::Table,
+    value: impl Fn(&str) -> Option<serde_json::Value>,
+) -> bool {
     filter.iter().all(|(k, v)| {
-        let Some(have) = axis_value(c, k) else {
+        let Some(have) = value(k) else {
             return false;
         };
         match crate::plan::toml_to_json(v) {

@@ -132,6 +132,26 @@ fn study_axis(experiment: &Experiment, plan: &crate::store::PlanRecord) -> Optio
         .find(seedless)
 }
 
+/// Rewrites `report.html`'s explorer to open on the pair its experiment copy names
+/// (`[report] pair`), changing nothing else: the one part of a committed study's report a
+/// clone can rebuild without the cells' data.
+pub(crate) fn reopen_explorer(out: &OutputDir) -> Result<PathBuf> {
+    let experiment = Experiment::load(&out.root().join("experiment.toml"))
+        .with_context(|| format!("{}: reading the experiment copy", out.root().display()))?;
+    let pair = experiment.report.pair.as_ref().ok_or_else(|| {
+        anyhow::anyhow!(
+            "{}: experiment.toml names no [report] pair to open the explorer on (e.g. pair = {{ a = {{ \"integrator.nused\" = 25 }}, b = {{ \"integrator.nused\" = 150 }} }})",
+            out.root().display()
+        )
+    })?;
+    let path = out.root().join("report.html");
+    let html = volphot::read_text_capped(&path, 1 << 30, "report page")?;
+    let html = explorer::reopen_page(&html, pair)
+        .with_context(|| format!("{}: opening the explorer on its pair", path.display()))?;
+    volphot::write_atomic(&path, html.as_bytes())?;
+    Ok(path)
+}
+
 /// Builds `cells.csv`, `cells.json`, figures, `report.md` and `report.html`. Refuses, writing
 /// nothing, when the folder's tables record finished cells whose data are not here.
 pub(crate) fn build_report(out: &OutputDir) -> Result<PathBuf> {

@@ -7,7 +7,7 @@ use serde::Serialize;
 use super::Opening;
 use super::data::DataIndex;
 use crate::plan::PairSpec;
-use crate::report::collect::{Collected, axis_value, distinct_values, matches, value_label};
+use crate::report::collect::{Collected, axis_value, distinct_values, matches_values, value_label};
 use crate::store::PlanRecord;
 
 /// Version of the manifest's shape, for the page.
@@ -110,24 +110,79 @@ fn named_pair(
     data: &DataIndex,
     pair: &PairSpec,
 ) -> Option<[usize; 2]> {
-    let done = || (0..cells.len()).filter(|i| data.cells.contains_key(i));
-    let a = done().find(|&i| matches(&cells[i].planned, &pair.a))?;
-    let free: Vec<&String> = plan
-        .axes
+    choose_pair(
+        &plan.axes,
+        (0..cells.len()).filter(|i| data.cells.contains_key(i)),
+        |i, k| axis_value(&cells[i].planned, k),
+        pair,
+    )
+}
+
+/// [`named_pair`] over cells `done` (in order) whose axis values `value(cell, key)` gives.
+fn choose_pair(
+    axes: &[String],
+    done: impl Iterator<Item = usize> + Clone,
+    value: impl Fn(usize, &str) -> Option<serde_json::Value>,
+    pair: &PairSpec,
+) -> Option<[usize; 2]> {
+    let a = done
+        .clone()
+        .find(|&i| matches_values(&pair.a, |k| value(i, k)))?;
+    let free: Vec<&String> = axes
         .iter()
         .filter(|k| !pair.a.contains_key(k.as_str()) && !pair.b.contains_key(k.as_str()))
         .collect();
-    let agreement = |b: usize| {
-        free.iter()
-            .filter(|k| axis_value(&cells[a].planned, k) == axis_value(&cells[b].planned, k))
-            .count()
-    };
+    let agreement = |b: usize| free.iter().filter(|k| value(a, k) == value(b, k)).count();
     // The first of the best: `max_by_key` keeps the last of equals, so walk backwards.
-    let candidates: Vec<usize> = done()
-        .filter(|&b| b != a && matches(&cells[b].planned, &pair.b))
+    let candidates: Vec<usize> = done
+        .filter(|&b| b != a && matches_values(&pair.b, |k| value(b, k)))
         .collect();
     let b = candidates.into_iter().rev().max_by_key(|&b| agreement(b))?;
     Some([a, b])
+}
+
+/// The opening `pair` names in a page's manifest (its axes, their values as text, each
+/// cell's coordinates and whether its data are there), for [`super::reopen_page`]: a clone
+/// holds the page but not the cells it was built from.
+pub(super) fn reopen(manifest: &mut serde_json::Value, pair: &PairSpec) -> anyhow::Result<()> {
+    let axes: Vec<(String, Vec<serde_json::Value>)> = manifest["axes"]
+        .as_array()
+        .map(|axes| {
+            axes.iter()
+                .map(|a| {
+                    let values = a["values"].as_array().map_or(Vec::new(), |v| {
+                        // A value as the plan held it: its text read back as JSON where it
+                        // is a number, a flag or a list, else the text.
+                        v.iter()
+                            .map(|t| {
+                                let text = t.as_str().unwrap_or_default();
+                                serde_json::from_str(text)
+                                    .unwrap_or_else(|_| serde_json::Value::String(text.into()))
+                            })
+                            .collect()
+                    });
+                    (a["key"].as_str().unwrap_or_default().to_string(), values)
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let cells = manifest["cells"].as_array().cloned().unwrap_or_default();
+    let keys: Vec<String> = axes.iter().map(|(k, _)| k.clone()).collect();
+    let value = |cell: usize, key: &str| {
+        let axis = axes.iter().position(|(k, _)| k == key)?;
+        let at = cells[cell]["coords"][axis].as_u64()? as usize;
+        axes[axis].1.get(at).cloned()
+    };
+    let done = (0..cells.len()).filter(|&i| cells[i].get("data").is_some());
+    let start = choose_pair(&keys, done, value, pair).ok_or_else(|| {
+        anyhow::anyhow!(
+            "no finished cell of report.pair.a = {} has a finished cell of report.pair.b = {} beside it",
+            pair.a,
+            pair.b
+        )
+    })?;
+    manifest["start"] = serde_json::json!(start);
+    Ok(())
 }
 
 impl Manifest {

@@ -32,6 +32,43 @@ const MARKUP: &str = include_str!("explorer.html");
 const STYLE: &str = include_str!("explorer.css");
 const SCRIPT: &str = include_str!("explorer.js");
 
+/// `html` (a `report.html` with an explorer) opening on `pair`: the manifest's `start`
+/// changes, and the page's code becomes this build's (a page made before the explorer
+/// read `start` would ignore it; the markup and style it drives are checked to be this
+/// build's, so the code finds what it expects). What a clone can do with a committed study
+/// whose pair changed, since the cells' data the page was built from are not committed.
+pub(crate) fn reopen_page(html: &str, pair: &PairSpec) -> Result<String> {
+    const OPEN: &str = "<script type=\"application/json\" id=\"explorer-manifest\">";
+    const CODE: &str = "</script>\n<script>\n";
+    if !html.contains(MARKUP) || !html.contains(STYLE) {
+        anyhow::bail!(
+            "the page's explorer controls are not this build's: render the study again (`sweep report` on its run folder)"
+        );
+    }
+    let start = html
+        .find(OPEN)
+        .map(|i| i + OPEN.len())
+        .ok_or_else(|| anyhow::anyhow!("the page has no explorer manifest"))?;
+    let end = start
+        + html[start..].find(CODE).ok_or_else(|| {
+            anyhow::anyhow!("the page's explorer manifest is not followed by its code")
+        })?;
+    let code = end + CODE.len();
+    let code_end = code
+        + html[code..]
+            .find("</script>")
+            .ok_or_else(|| anyhow::anyhow!("the page's explorer code is not closed"))?;
+    let mut manifest: serde_json::Value = serde_json::from_str(&html[start..end])?;
+    manifest::reopen(&mut manifest, pair)?;
+    // As `Manifest::to_script_json` writes it: no `<` that could close the element.
+    let json = serde_json::to_string(&manifest)?.replace('<', "\\u003c");
+    Ok(format!(
+        "{}{json}{CODE}{SCRIPT}{}",
+        &html[..start],
+        &html[code_end..]
+    ))
+}
+
 /// A report's explorer, its data files written.
 pub(crate) struct Explorer {
     manifest: String,
@@ -72,6 +109,53 @@ impl Explorer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A page made by an older build opens on the pair it is given, with this build's code;
+    /// its other cells and text stay as they were, and a page whose controls are not this
+    /// build's is refused rather than given code that would not find them.
+    #[test]
+    fn a_page_reopens_on_its_pair_with_this_builds_code() {
+        let table = |text: &str| -> toml::Table {
+            let (key, value) = text.split_once(" = ").unwrap();
+            format!("\"{key}\" = {value}").parse().unwrap()
+        };
+        let manifest = serde_json::json!({
+            "format": 1,
+            "axes": [
+                {"key": "scene", "values": ["a.toml", "b.toml"]},
+                {"key": "integrator.nused", "values": ["25", "50", "150"]}
+            ],
+            "cells": [
+                {"coords": [0, 0], "data": "0.js"}, {"coords": [0, 1], "data": "1.js"},
+                {"coords": [0, 2]}, {"coords": [1, 0], "data": "3.js"},
+                {"coords": [1, 2], "data": "4.js"}
+            ],
+            "start": [0, 1]
+        });
+        let page = |style: &str| {
+            format!(
+                "<p>before</p><style>{style}</style>\n{MARKUP}<script type=\"application/json\" id=\"explorer-manifest\">{manifest}</script>\n<script>\nold code\n</script>\n<p>after</p>"
+            )
+        };
+        let pair = PairSpec {
+            a: table("integrator.nused = 25"),
+            b: table("integrator.nused = 150"),
+        };
+        let html = reopen_page(&page(STYLE), &pair).unwrap();
+        // A is the first finished cell of nused 25 (cell 0); of the nused-150 cells only
+        // cell 4 (scene b) is finished, so B is cell 4 though cell 2 shares A's scene.
+        assert!(html.contains("\"start\":[0,4]"), "{html}");
+        assert!(html.contains(SCRIPT) && !html.contains("old code"));
+        assert!(html.starts_with("<p>before</p>") && html.ends_with("</script>\n<p>after</p>"));
+        let refused = reopen_page(&page("p{}"), &pair).unwrap_err().to_string();
+        assert!(refused.contains("render the study again"), "{refused}");
+        let unknown = PairSpec {
+            a: table("integrator.nused = 25"),
+            b: table("integrator.nused = 300"),
+        };
+        let none = reopen_page(&page(STYLE), &unknown).unwrap_err();
+        assert!(format!("{none:#}").contains("300"), "{none:#}");
+    }
 
     #[test]
     fn the_page_code_cannot_close_its_script_element() {
