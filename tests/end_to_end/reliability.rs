@@ -732,3 +732,47 @@ fn report_md_escapes_user_strings() {
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(!html.contains("<img src=x"), "live HTML in report.html");
 }
+
+/// A scene an experiment names is read inside the experiment's folder: a symbolic link
+/// there (`scenes -> /somewhere/else`) may not carry the name out of it, as the files a
+/// scene names may not leave the scene's folder. A name whose text leads out
+/// (`../elsewhere/plain.toml`) is the author's choice and is read.
+#[test]
+fn a_scene_an_experiment_names_is_confined_to_its_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene_text =
+        std::fs::read_to_string(workspace().join("experiments/scenes/phantom-engine.toml"))
+            .unwrap();
+    let (study, elsewhere) = (dir.path().join("study"), dir.path().join("elsewhere"));
+    std::fs::create_dir_all(&study).unwrap();
+    std::fs::create_dir_all(&elsewhere).unwrap();
+    std::fs::write(elsewhere.join("plain.toml"), &scene_text).unwrap();
+    std::os::unix::fs::symlink(&elsewhere, study.join("scenes")).unwrap();
+    let experiment = |scene: &str| {
+        let path = study.join("linked.toml");
+        std::fs::write(
+            &path,
+            format!(
+                "name = \"linked\"\nscene = \"{scene}\"\n[set]\n\"volume.phantom.resolution\" = [16, 16, 16]\n\
+                 \"camera.resolution\" = [12, 12]\n[axes]\n\"integrator.nused\" = [25, 50]\n"
+            ),
+        )
+        .unwrap();
+        path
+    };
+    let out = output_within(sweep().arg("plan").arg(experiment("scenes/plain.toml")), 30);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "a linked scene was read: {stderr}");
+    for word in [
+        "scenes/plain.toml",
+        "leads out of the experiment's folder",
+        "linked.toml",
+    ] {
+        assert!(stderr.contains(word), "{stderr:?} lacks {word:?}");
+    }
+    run_ok(
+        sweep()
+            .arg("plan")
+            .arg(experiment("../elsewhere/plain.toml")),
+    );
+}

@@ -116,7 +116,7 @@ pub use scene::{
     locate_error, three_point, toml_error, validate_params,
 };
 pub use util::{
-    TEXT_INPUT_CAP, byte_size, cache_dir, escaped_prefix, hostname, is_stale_temp,
+    TEXT_INPUT_CAP, byte_size, cache_dir, confined, escaped_prefix, hostname, is_stale_temp,
     memory_budget_bytes, open_regular, peak_memory_bytes, process_cpu_seconds, read_bytes_capped,
     read_text_capped, sha256_bytes, sha256_cached, sha256_content, sha256_file, temp_sibling,
     write_atomic, write_atomic_with,

@@ -345,7 +345,10 @@ impl Experiment {
     fn base_table(&self, scene_file: Option<&str>) -> Result<(Table, PathBuf)> {
         let dir = self.base_dir();
         let load = |rel: &Path| -> Result<(Table, PathBuf)> {
-            let path = dir.join(rel);
+            // A scene the experiment names is read inside the experiment's folder: a link
+            // there may not lead out of it (as the files a scene names are confined).
+            let path = volphot::confined(&dir, rel, "the experiment's folder")
+                .with_context(|| format!("{}: reading its scene", self.source.path.display()))?;
             let text = volphot::read_text_capped(&path, volphot::TEXT_INPUT_CAP, "scene file")
                 .with_context(|| format!("{}: reading its scene", self.source.path.display()))?;
             let table: Table = text
