@@ -20,9 +20,9 @@ mod io;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+pub use crate::util::{read_pfm, write_pfm};
 pub use agreement::{Agreement, agreement, luminance};
-pub(crate) use io::read_pfm_bounded;
-pub use io::{PfmChannels, read_pfm, to_srgb8, write_pfm, write_png, write_png_rgb8};
+pub use io::{to_srgb8, write_png, write_png_rgb8};
 
 /// One of the film's radiance layers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -4,12 +4,14 @@
 
 mod beams;
 mod bvh;
+mod estimate;
 mod map;
 mod neighbours;
 mod planes;
 mod trace;
 
 pub use beams::{BeamMap, BeamRadius, Crossing};
-pub use map::{GatherScratch, GatherVariant, Gathered, PhotonMap};
+pub use estimate::{GatherScratch, GatherVariant};
+pub use map::{Gathered, PhotonMap};
 pub use planes::{PhotonPlane, PlaneCrossing, PlaneMap, trace_planes};
 pub use trace::{MAX_INTERACTIONS, Photon, PhotonStats, TraceSettings, photons_per_light, trace};

@@ -19,7 +19,7 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
-use super::light::Incident;
+use super::light::incident::{Incident, check_radiance};
 use crate::error::{Error, Result};
 use crate::math::{Frame, Ray, Rng, Sphere, concentric_disc, cosine_hemisphere, uniform_cone};
 
@@ -305,23 +305,6 @@ fn oriented_frame(n: Vec3, up: Option<Vec3>) -> Result<Frame> {
         v,
         w: n,
     })
-}
-
-/// Emitted radiance: finite, ≥ 0, not all 0, at most [`super::light::MAX_INTENSITY`].
-pub(super) fn check_radiance(radiance: Vec3) -> Result<()> {
-    if radiance.is_finite()
-        && radiance.min_element() >= 0.0
-        && radiance.max_element() > 0.0
-        && radiance.max_element() <= super::light::MAX_INTENSITY
-    {
-        Ok(())
-    } else {
-        Err(Error::parameter(
-            "radiance",
-            format!("{:?}", radiance.to_array()),
-            "finite values >= 0, not all 0, at most 1e20 (W/m²/sr)",
-        ))
-    }
 }
 
 #[cfg(test)]

@@ -22,7 +22,8 @@ use std::path::PathBuf;
 use glam::{DVec3, Vec3};
 
 use super::envmap::EnvironmentMap;
-use super::light::{Incident, Intensity, LightKind, LightParams, MAX_INTENSITY};
+use super::light::incident::{Incident, MAX_INTENSITY, check_radiance};
+use super::light::schema::{Intensity, LightKind, LightParams};
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Frame, Ray, Rng, Sphere, concentric_disc};
 
@@ -106,7 +107,7 @@ impl Sun {
                 ),
             ));
         }
-        super::area::check_radiance(radiance).map_err(|_| {
+        check_radiance(radiance).map_err(|_| {
             Error::parameter(
                 "sun_radiance",
                 format!("{:?}", radiance.to_array()),

@@ -24,9 +24,9 @@ use std::path::Path;
 
 use glam::{DVec3, Vec3};
 
-use super::light::MAX_INTENSITY;
+use super::light::incident::MAX_INTENSITY;
 use crate::error::{Error, Result};
-use crate::film::{PfmChannels, read_pfm_bounded};
+use crate::util::{PfmChannels, read_pfm_bounded};
 use crate::util::{byte_size, memory_budget_bytes, open_regular};
 
 /// The most texels a map file may hold: 2^27, a 16384 × 8192 map (the largest
@@ -902,7 +902,7 @@ mod tests {
         let (w, h) = (5, 3);
         let texels = ramp(w, h);
         let path = dir.path().join("project.pfm");
-        crate::film::write_pfm(&path, w, h, &texels).unwrap();
+        crate::util::write_pfm(&path, w, h, &texels).unwrap();
         let map = EnvironmentMap::load(&path).unwrap();
         assert_eq!(
             (map.width(), map.height(), map.texels()),

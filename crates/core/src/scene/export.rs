@@ -80,7 +80,7 @@ pub fn export_mitsuba(scene: &Scene, dir: &Path, name: &str) -> Result<MitsubaEx
                 let file = format!("{name}-env{i}.pfm");
                 let (w, h, texels) =
                     mitsuba_texels(e).map_err(|e| e.within(&format!("lights[{i}]")))?;
-                crate::film::write_pfm(&dir.join(&file), w, h, &texels)?;
+                crate::util::write_pfm(&dir.join(&file), w, h, &texels)?;
                 maps.push(dir.join(&file));
                 Some(file)
             }
@@ -935,7 +935,7 @@ mod tests {
         };
         // Four times finer, one more row: the poles and each texel's centre keep volphot's
         // values (Mitsuba's bilinear lookup there returns them).
-        let (w, h, texels) = crate::film::read_pfm(&files.maps[0]).unwrap();
+        let (w, h, texels) = crate::util::read_pfm(&files.maps[0]).unwrap();
         let (mw, mh) = (env.map().width(), env.map().height());
         assert_eq!((w, h), (4 * mw, 4 * mh + 1));
         let ours = |row: usize, col: usize| env.map().texels()[row * mw + col];

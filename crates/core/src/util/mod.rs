@@ -5,6 +5,7 @@ mod checksum;
 mod fsutil;
 mod input;
 mod memory;
+mod pfm;
 
 pub use checksum::{cache_dir, sha256_bytes, sha256_cached, sha256_content, sha256_file};
 pub use fsutil::{hostname, is_stale_temp, temp_sibling, write_atomic, write_atomic_with};
@@ -15,3 +16,5 @@ pub use input::{
 };
 pub(crate) use memory::WORKING_BYTES_PER_VOXEL;
 pub use memory::{memory_budget_bytes, peak_memory_bytes, process_cpu_seconds};
+pub(crate) use pfm::read_pfm_bounded;
+pub use pfm::{PfmChannels, read_pfm, write_pfm};

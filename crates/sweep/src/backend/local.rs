@@ -19,7 +19,7 @@ impl Backend for Local {
         let exp = run.experiment;
         let full = run.selection == Selection::All;
         let _lock = lock_folder(&run.output, full)?;
-        check_owner(&run.output, exp)?;
+        check_owner(&run.output, &exp.owner())?;
         let plan = exp.plan_record(run.cells, run.hashes, run.quality)?;
         write_plan(&run.output, &plan, &exp.source.text)?;
         let pool = crate::render::thread_pool(self.threads)?;

@@ -453,7 +453,7 @@ pub(crate) fn print_jobs(out: &OutputDir) {
 impl Backend for Slurm {
     fn execute(&self, run: &Run<'_>) -> Result<Outcome> {
         let (exp, out) = (run.experiment, &run.output);
-        check_owner(out, exp)?;
+        check_owner(out, &exp.owner())?;
         std::fs::create_dir_all(out.root().join("slurm").join("logs"))?;
         let plan = exp.plan_record(run.cells, run.hashes, run.quality)?;
         write_plan(out, &plan, &exp.source.text)?;

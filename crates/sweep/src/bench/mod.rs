@@ -337,7 +337,12 @@ fn config_name(config: BenchConfig) -> &'static str {
 /// Runs the benchmark.
 pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     if args.mode == BenchMode::Reference {
-        return reference::run(args);
+        // The variance budget is a reference bench of its own (`--reference --budget`).
+        return if args.budget {
+            budget::run(args)
+        } else {
+            reference::run(args)
+        };
     }
     let scene_path = headline(args)?;
     let (mut params, _) = crate::plan::load_scene(&scene_path)

@@ -114,11 +114,8 @@ struct Reference {
     info: ReferenceInfo,
 }
 
-/// Runs the comparison.
+/// Runs the comparison (`--budget` runs [`super::budget::run`] instead).
 pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
-    if args.budget {
-        return super::budget::run(args);
-    }
     if args.passes < 2 {
         bail!(
             "--passes {}: expected at least 2 (the first pass is timed apart)",

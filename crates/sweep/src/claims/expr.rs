@@ -346,11 +346,11 @@ impl Expr {
             });
             let v = self
                 .eval_with(data, &with)
-                .with_context(|| format!("at {key}={}", super::source::shown_short(&g)))?;
+                .with_context(|| format!("at {key}={}", super::quote::shown_short(&g)))?;
             if !v.is_finite() {
                 bail!(
                     "at {key}={} the expression gives {v} (a division by zero?): every group needs a finite value",
-                    super::source::shown_short(&g)
+                    super::quote::shown_short(&g)
                 );
             }
             values.push((g, v));

@@ -25,6 +25,7 @@ mod document;
 mod expr;
 #[cfg(test)]
 mod fuzz;
+mod quote;
 mod source;
 mod uncited;
 mod update;

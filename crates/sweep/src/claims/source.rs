@@ -15,6 +15,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use serde_json::Value;
 
 use super::expr::{Call, Data, Filter};
+use super::quote::shown;
 use crate::confine::Refused;
 
 /// One table: rows of column key → text. A CSV header `ms_share [1]` has the key
@@ -41,25 +42,6 @@ pub(crate) struct Sources {
 /// A CSV header without its unit: `rmse [W/(m2 sr)]` → `rmse`.
 fn key_of(header: &str) -> &str {
     header.split(" [").next().unwrap_or(header).trim()
-}
-
-/// How an error shows a data value: its length and its first bytes, escaped.
-pub(crate) fn shown(value: &str) -> String {
-    format!(
-        "a {}-byte text starting `{}`",
-        value.len(),
-        volphot::escaped_prefix(value.as_bytes(), 3)
-    )
-}
-
-/// How an error names a group (a seed's value): a short number as it is, anything else
-/// as [`shown`] does.
-pub(crate) fn shown_short(value: &str) -> String {
-    if value.len() <= 6 && value.parse::<f64>().is_ok() {
-        volphot::escaped_prefix(value.as_bytes(), 6)
-    } else {
-        shown(value)
-    }
 }
 
 fn read_table(path: &Path, text: &str) -> Result<Table> {

@@ -253,6 +253,15 @@ impl Experiment {
         &self.source.path
     }
 
+    /// What the store checks an output folder's owner by.
+    pub(crate) fn owner(&self) -> crate::store::Owner<'_> {
+        crate::store::Owner {
+            name: &self.name,
+            path: &self.source.path,
+            sha256: &self.sha256,
+        }
+    }
+
     /// The folder holding the experiment file (base for relative paths).
     pub(crate) fn base_dir(&self) -> PathBuf {
         self.source

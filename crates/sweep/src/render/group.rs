@@ -7,7 +7,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use volphot::{Film, Layer, Provenance, Scene, SearchPath, SharedFilm, SharedRender, write_png};
 
-use super::Job;
+use super::job::{Job, non_finite};
 use super::scenes::Caches;
 use crate::analyse::{analyse_cell, compare_with_reference, displayed};
 use crate::store::{
@@ -243,7 +243,7 @@ fn write_cell(
 ) -> Result<Vec<volphot::RenderWarning>> {
     let film = &result.film;
     if !film.is_finite() {
-        return Err(super::non_finite(
+        return Err(non_finite(
             &format!("cell {}", job.spec.index),
             film,
             &job.spec.params,

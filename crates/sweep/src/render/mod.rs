@@ -13,6 +13,7 @@
 //! finished cells.
 
 mod group;
+mod job;
 mod reference;
 mod scenes;
 
@@ -25,10 +26,12 @@ use volphot::{Method, SearchPath};
 
 use group::{CellWarning, GroupContext, GroupOutcome, render_group};
 pub(crate) use group::{FAIL_CELLS_ENV, PANIC_CELLS_ENV};
+use job::Job;
+pub(crate) use job::non_finite;
 use reference::{ReferenceJob, ensure_reference};
 pub(crate) use scenes::Caches;
 
-use crate::plan::{CellSpec, Experiment, toml_to_json};
+use crate::plan::{CellSpec, Experiment};
 use crate::store::{
     CellState, OutputDir, PlanRecord, ReferencePool, cell_state, clean_stale, hostname,
 };
@@ -177,23 +180,6 @@ pub(crate) struct RunSummary {
     pub(crate) references: usize,
     /// Wall-clock seconds.
     pub(crate) seconds: f64,
-}
-
-/// A cell to render now.
-pub(crate) struct Job {
-    spec: CellSpec,
-    hash: String,
-    reference: Option<String>,
-}
-
-impl Job {
-    fn axes_json(&self) -> Vec<(String, serde_json::Value)> {
-        self.spec
-            .axes
-            .iter()
-            .map(|(k, v)| (k.clone(), toml_to_json(v)))
-            .collect()
-    }
 }
 
 /// Renders the selected, unfinished cells of `cells` into the output folder.
@@ -527,48 +513,6 @@ fn record_failures(
 }
 
 /// Builds a rayon pool with `threads` workers (all cores when `None`).
-/// The error for an image with infinite or NaN pixels: which layers, how many, and the
-/// scene's values most likely to have overflowed (its brightest light, its σt).
-pub(crate) fn non_finite(
-    what: &str,
-    film: &volphot::Film,
-    params: &volphot::SceneParams,
-) -> anyhow::Error {
-    let layers: Vec<String> = film
-        .non_finite_pixels()
-        .iter()
-        .map(|(l, n)| format!("{} layer {n} pixels", l.name()))
-        .collect();
-    let mut lights: Vec<(String, f32)> = params
-        .lights
-        .iter()
-        .enumerate()
-        .filter_map(|(i, l)| {
-            // The brightest delta light's intensity, or an area light's radiance.
-            let (key, value) = match (l.intensity, l.radiance) {
-                (Some(v), _) => ("intensity", v),
-                (None, Some(v)) => ("radiance", v),
-                _ => return None,
-            };
-            Some((format!("lights[{i}].{key}"), value.rgb().max_element()))
-        })
-        .collect();
-    if let Some(t) = &params.three_point {
-        lights.push(("three_point.key_intensity".into(), t.key_intensity));
-    }
-    let brightest = lights
-        .iter()
-        .max_by(|a, b| a.1.total_cmp(&b.1))
-        .map_or(String::new(), |(k, v)| {
-            format!("; the brightest light is `{k}` = {v:e}")
-        });
-    anyhow::anyhow!(
-        "{what} rendered infinite or NaN values ({}): a value overflowed 32-bit floats{brightest}, σt(d_min) `sigma.t` = {}; lower the light's intensity or σt",
-        layers.join(", "),
-        params.sigma.t.map_or("unset".into(), |t| format!("{t:e}"))
-    )
-}
-
 pub(crate) fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {

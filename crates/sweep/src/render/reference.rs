@@ -9,6 +9,7 @@ use anyhow::{Context, Result};
 use volphot::{Film, ReferenceAccumulator, Scene, SceneParams, write_png};
 
 use super::group::GroupContext;
+use super::job::non_finite;
 use crate::plan::{CellSpec, ReferenceMethod, ReferenceSpec, reference_params};
 use crate::store::{
     FileCheck, OutputDir, ReferencePool, ReferenceRecord, StagedDir, VERSION, lock_reference,
@@ -126,7 +127,7 @@ fn render(
     bar.finish_and_clear();
     multi.remove(&bar);
     if !film.is_finite() {
-        return Err(super::non_finite(
+        return Err(non_finite(
             &format!("reference {}", job.key),
             &film,
             scene.params(),

@@ -8,7 +8,8 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use volphot::{Method, SceneParams, Tracker};
 
-use super::VERSION;
+/// Program version recorded in every output (and part of every address).
+pub(crate) const VERSION: &str = env!("CARGO_PKG_VERSION");
 
 /// The identity of a cell's volume without loading it.
 pub(crate) fn volume_identity(params: &SceneParams, base: &Path) -> Result<String> {

@@ -10,6 +10,7 @@
 
 mod address;
 mod archive;
+mod checksum;
 mod lock;
 mod pool;
 mod records;
@@ -18,15 +19,16 @@ mod verify;
 
 use std::path::{Path, PathBuf};
 
-pub(crate) use address::{cell_hash, inputs_identity, reference_hash};
+pub(crate) use address::{VERSION, cell_hash, inputs_identity, reference_hash};
 pub(crate) use archive::recorded_but_absent;
+pub(crate) use checksum::{FileCheck, first_mismatch};
 pub(crate) use lock::{
     CellLock, cell_is_locked, lock_folder, lock_reference, lock_tune, try_lock_cell,
 };
 pub(crate) use pool::{ReferencePool, verified_reference};
 pub(crate) use records::*;
 pub(crate) use staging::{StagedDir, clean_stale};
-pub(crate) use verify::{CELL_FILES, CellState, FileCheck, cell_state, first_mismatch};
+pub(crate) use verify::{CELL_FILES, CellState, cell_state, is_done};
 
 /// A path as a record keeps it: relative to the working folder when inside it, else `…/`
 /// and its file name (no folder of the machine that wrote the record).
@@ -74,9 +76,6 @@ pub(crate) fn recorded_command() -> Vec<String> {
         })
         .collect()
 }
-
-/// Program version recorded in every output.
-pub(crate) const VERSION: &str = env!("CARGO_PKG_VERSION");
 
 /// Paths inside an output folder.
 #[derive(Debug, Clone)]
@@ -146,15 +145,23 @@ const OUTPUT_ENTRIES: [&str; 14] = [
     "tune",
 ];
 
+/// What [`check_owner`] asks of an experiment: its name, its file and that file's sha256.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Owner<'a> {
+    /// The experiment's `name`.
+    pub(crate) name: &'a str,
+    /// The experiment file.
+    pub(crate) path: &'a std::path::Path,
+    /// The file's content hash.
+    pub(crate) sha256: &'a str,
+}
+
 /// Refuses an output folder that belongs to another experiment: its `plan.json` names
 /// another, or the same name from another file with other content (a different study that
 /// happens to share the name would replace its cells, tables and reports); or a folder
 /// that holds anything a sweep run did not write. A new or empty folder, one of this
 /// experiment file (edited or not), or one written from a copy of it, is fine.
-pub(crate) fn check_owner(
-    out: &OutputDir,
-    experiment: &crate::plan::Experiment,
-) -> anyhow::Result<()> {
+pub(crate) fn check_owner(out: &OutputDir, experiment: &Owner<'_>) -> anyhow::Result<()> {
     if let Ok(plan) = read_plan(out) {
         anyhow::ensure!(
             plan.experiment == experiment.name,
@@ -166,7 +173,7 @@ pub(crate) fn check_owner(
         );
         let same_file = match (
             std::fs::canonicalize(&plan.experiment_file),
-            std::fs::canonicalize(&experiment.source.path),
+            std::fs::canonicalize(experiment.path),
         ) {
             (Ok(a), Ok(b)) => a == b,
             _ => false,
@@ -178,7 +185,7 @@ pub(crate) fn check_owner(
             plan.experiment,
             plan.experiment_file.display(),
             &plan.experiment_sha256.get(..12).unwrap_or(""),
-            experiment.source.path.display(),
+            experiment.path.display(),
         );
         return Ok(());
     }

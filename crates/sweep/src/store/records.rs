@@ -9,7 +9,8 @@ use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use volphot::{PhotonStats, Provenance, SceneParams, VolumeSource};
 
-use super::{FileCheck, OutputDir};
+use super::OutputDir;
+use super::checksum::FileCheck;
 
 /// Version of the reference metrics; stored metrics of another version are recomputed.
 pub(crate) const REFERENCE_METRICS_VERSION: u32 = 3;
@@ -169,11 +170,6 @@ pub(crate) struct CellRecord {
     /// What the cell's settings cannot resolve (`volphot::render_warnings`), as sentences.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub(crate) warnings: Vec<String>,
-}
-
-/// Whether a cell has finished and is whole (see [`super::cell_state`]).
-pub(crate) fn is_done(dir: &Path) -> bool {
-    matches!(super::cell_state(dir), super::CellState::Done(_))
 }
 
 /// The largest record read (`plan.json` of a large grid, a cell's record): 64 MiB.

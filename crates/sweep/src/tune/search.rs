@@ -33,7 +33,7 @@ pub(super) fn search(
     opts: &TuneOptions,
 ) -> Result<ExitCode> {
     let _lock = lock_tune(&out)?;
-    check_owner(&out, exp)?;
+    check_owner(&out, &exp.owner())?;
     let cells = TuneCells::new(exp, spec)?;
     let multi = crate::progress::multi(opts.quiet);
     let (len, unit) = match spec.budget {
