@@ -7,7 +7,7 @@
 #   scripts/pydicom-corpus.sh --install  # install only (what .ci/run does)
 #
 # Environment: VOLPHOT_PYDICOM_VENV (default ${XDG_CACHE_HOME:-~/.cache}/volphot/pydicom-venv).
-# The test `pydicom_corpus_matches_pydicom_file_by_file` (crates/core/tests/dicom.rs) runs it.
+# The test `pydicom_corpus_matches_pydicom_file_by_file` (crates/core/tests/it/dicom.rs) runs it.
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"

@@ -19,7 +19,7 @@ For every file bundled with pydicom (pydicom/data/test_files), writes to OUT:
   SOPInstanceUID each; the pixel bytes and the transfer syntax are left untouched.
 
 scripts/pydicom-corpus.sh installs pydicom and its decoders into a virtual environment;
-crates/core/tests/dicom.rs (`pydicom_corpus_…`) reads the output and compares.
+crates/core/tests/it/dicom.rs (`pydicom_corpus_…`) reads the output and compares.
 """
 
 import copy

@@ -584,9 +584,6 @@ fn validate_params_and_locate_agree_on_keys() {
 
 // --- Environment maps and the files a scene names -----------------------------------------
 
-#[global_allocator]
-static PROBE: volphot::test_util::alloc::Probe = volphot::test_util::alloc::Probe;
-
 use volphot::test_util::alloc::{largest_allocation, reset_largest};
 
 /// Loads a scene in `dir` lit by the environment map `file` (with `extra` keys in its

@@ -10,7 +10,6 @@ use std::path::{Path, PathBuf};
 use volphot::test_util::dicom::{SliceSpec, write_slice};
 use volphot::{DicomInput, LoadedVoxels, Orientation, read_dicom_series};
 
-#[path = "dicom/pydicom_corpus.rs"]
 mod pydicom_corpus;
 
 /// RLE Lossless transfer syntax UID.
@@ -516,7 +515,7 @@ fn cranium_ct_written_as_dicom_reads_back_voxel_for_voxel() {
     assert_eq!(bad, None, "first differing voxel");
 }
 
-/// Benchmark, not a timed test (`cargo test -p volphot-core --test dicom -- --ignored
+/// Benchmark, not a timed test (`cargo test -p volphot-core --test it dicom:: -- --ignored
 /// --nocapture load_cost`): a generated 512-slice series of 256×256 signed CT slices
 /// against the same voxels as a RAW file, both read and normalised through the public
 /// loaders (each computes its content sha256). The issue asks for DICOM ≤ 2× RAW.

@@ -9,7 +9,7 @@
 //! generator cannot drift to one side.
 //!
 //! CI runs a few thousand cases per parser; the long run (`cargo test --release -p
-//! volphot-core --test fuzz -- --ignored`) runs 100 000 each.
+//! volphot-core --test it fuzz:: -- --ignored`) runs 100 000 each.
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -33,10 +33,6 @@ const LONG_CASES: u32 = 100_000;
 
 /// The most any one case may take.
 const BOUND: Duration = Duration::from_secs(20);
-
-/// The test binary's allocator notes each thread's largest request (and refuses 2 GiB).
-#[global_allocator]
-static PROBE: volphot::test_util::alloc::Probe = volphot::test_util::alloc::Probe;
 
 /// The most a case may allocate at once: a gigabyte asked for at once is an input read
 /// whole, or sized from a header, that should have been refused first.
@@ -309,7 +305,7 @@ fn fuzz_raw_layouts() {
 }
 
 #[test]
-#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+#[ignore = "long run: cargo test --release -p volphot-core --test it fuzz:: -- --ignored"]
 fn fuzz_raw_layouts_long() {
     fuzz("raw_layouts", LONG_CASES, raw_case(), check_raw);
 }
@@ -488,7 +484,7 @@ fn fuzz_nrrd_headers() {
 }
 
 #[test]
-#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+#[ignore = "long run: cargo test --release -p volphot-core --test it fuzz:: -- --ignored"]
 fn fuzz_nrrd_headers_long() {
     fuzz(
         "nrrd_headers",
@@ -544,7 +540,7 @@ fn fuzz_metaimage_headers() {
 }
 
 #[test]
-#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+#[ignore = "long run: cargo test --release -p volphot-core --test it fuzz:: -- --ignored"]
 fn fuzz_metaimage_headers_long() {
     fuzz(
         "metaimage_headers",
@@ -642,7 +638,7 @@ fn fuzz_pgm_transfer_functions() {
 }
 
 #[test]
-#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+#[ignore = "long run: cargo test --release -p volphot-core --test it fuzz:: -- --ignored"]
 fn fuzz_pgm_transfer_functions_long() {
     fuzz("pgm_transfer_functions", LONG_CASES, pgm_case(), check_pgm);
 }
@@ -786,7 +782,7 @@ fn fuzz_scene_files() {
 }
 
 #[test]
-#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+#[ignore = "long run: cargo test --release -p volphot-core --test it fuzz:: -- --ignored"]
 fn fuzz_scene_files_long() {
     fuzz("scene_files", LONG_CASES, scene_case(), check_scene);
 }
@@ -1025,7 +1021,7 @@ fn fuzz_nifti_headers() {
 }
 
 #[test]
-#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+#[ignore = "long run: cargo test --release -p volphot-core --test it fuzz:: -- --ignored"]
 fn fuzz_nifti_headers_long() {
     fuzz_nifti(LONG_CASES);
 }
@@ -1207,7 +1203,7 @@ fn fuzz_dicom_folders() {
 }
 
 #[test]
-#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+#[ignore = "long run: cargo test --release -p volphot-core --test it fuzz:: -- --ignored"]
 fn fuzz_dicom_folders_long() {
     fuzz(
         "dicom_folders",
@@ -1318,7 +1314,7 @@ fn fuzz_pbrt_include_graphs() {
 }
 
 #[test]
-#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+#[ignore = "long run: cargo test --release -p volphot-core --test it fuzz:: -- --ignored"]
 fn fuzz_pbrt_include_graphs_long() {
     fuzz(
         "pbrt_include_graphs",
@@ -1572,7 +1568,7 @@ fn fuzz_environment_maps() {
 }
 
 #[test]
-#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+#[ignore = "long run: cargo test --release -p volphot-core --test it fuzz:: -- --ignored"]
 fn fuzz_environment_maps_long() {
     fuzz("environment_maps", LONG_CASES, map_case(), check_map);
 }
@@ -1773,7 +1769,7 @@ fn fuzz_light_tables() {
 }
 
 #[test]
-#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+#[ignore = "long run: cargo test --release -p volphot-core --test it fuzz:: -- --ignored"]
 fn fuzz_light_tables_long() {
     fuzz_light_tables_with(LONG_CASES);
 }
@@ -1859,7 +1855,7 @@ fn fuzz_clip_tables() {
 }
 
 #[test]
-#[ignore = "long run: cargo test --release -p volphot-core --test fuzz -- --ignored"]
+#[ignore = "long run: cargo test --release -p volphot-core --test it fuzz:: -- --ignored"]
 fn fuzz_clip_tables_long() {
     fuzz("clip_tables", LONG_CASES, clip_case(), check_clip);
 }

@@ -444,10 +444,16 @@ fn big_endian_32_bit_dose_reads_as_its_little_endian_twin() {
 
 /// Peak resident memory of this process, bytes.
 fn peak_resident() -> u64 {
-    // SAFETY: an all-zero rusage is a valid value, and getrusage writes one into it.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) };
-    usage.ru_maxrss as u64 * 1024
+    // The address space's own high-water mark (`VmHWM`): a new one begins at `exec`, where
+    // `getrusage`'s `ru_maxrss` carries over the spawning process's resident set (a child
+    // spawned by a large test binary reported the parent's peak).
+    let status = std::fs::read_to_string("/proc/self/status").unwrap();
+    let kib: u64 = status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+        .expect("VmHWM in /proc/self/status");
+    kib * 1024
 }
 
 /// Reads the file named by `VOLPHOT_READ_ONE` and prints the peak resident memory: run by
@@ -463,13 +469,17 @@ fn read_one_file_and_print_peak_memory() {
     println!("peak-resident-bytes={} result={result:?}", peak_resident());
 }
 
+/// The test harness's name of [`read_one_file_and_print_peak_memory`]: its module path
+/// without the crate's name (the module sits wherever the test binary mounts it).
+fn read_one_test_name() -> String {
+    let module = module_path!().split_once("::").map_or("", |(_, m)| m);
+    format!("{module}::read_one_file_and_print_peak_memory")
+}
+
 /// The peak resident memory of reading `file` alone, in a child process.
 fn peak_memory_reading(file: &Path) -> u64 {
     let out = std::process::Command::new(std::env::current_exe().unwrap())
-        .args([
-            "--exact",
-            "pydicom_corpus::read_one_file_and_print_peak_memory",
-        ])
+        .args(["--exact", &read_one_test_name()])
         .args(["--ignored", "--nocapture", "--test-threads", "1"])
         .env("VOLPHOT_READ_ONE", file)
         .output()
