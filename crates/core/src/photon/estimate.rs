@@ -152,8 +152,8 @@ impl PhotonMap {
 mod tests {
     use super::*;
     use crate::math::{Domain, Rng};
-    use crate::photon::map::uniform_cloud;
     use crate::photon::PhotonStats;
+    use crate::photon::map::uniform_cloud;
 
     #[test]
     fn estimate_of_uniform_density_is_flux_per_volume_times_phase() {

@@ -110,17 +110,23 @@ impl Scene {
     /// Loads a scene file, its volume and medium; every error names the file and, for
     /// parameters, the line and column.
     pub fn load(path: &Path, search: &SearchPath) -> Result<Self> {
+        // `load_params` has checked the parameters (locating errors in the file).
         let (params, src) = load_params(path)?;
         let base = path.parent().unwrap_or(Path::new("."));
-        Self::from_params(&params, base, search).map_err(|e| locate_error(e, &src, path))
+        Self::build_checked(&params, base, search).map_err(|e| locate_error(e, &src, path))
     }
 
     /// Builds a scene from parameters (errors carry key paths, not positions).
     pub fn from_params(params: &SceneParams, base: &Path, search: &SearchPath) -> Result<Self> {
         validate_params(params)?;
+        Self::build_checked(params, base, search)
+    }
+
+    /// [`Self::from_params`] for parameters [`validate_params`] has passed.
+    fn build_checked(params: &SceneParams, base: &Path, search: &SearchPath) -> Result<Self> {
         let volume = load_volume(&params.volume, base, search)?;
         let medium = build_medium(params, &volume, base)?;
-        Self::assemble(params, Arc::new(medium), volume.source().clone(), base)
+        Self::assemble_checked(params, Arc::new(medium), volume.source().clone(), base)
     }
 
     /// Builds a scene around an existing medium (shared between sweep cells); `base` is the
@@ -132,6 +138,17 @@ impl Scene {
         base: &Path,
     ) -> Result<Self> {
         validate_params(params)?;
+        Self::assemble_checked(params, medium, volume_source, base)
+    }
+
+    /// [`Self::assemble`] for parameters [`validate_params`] has passed: each is checked
+    /// once on every way in.
+    fn assemble_checked(
+        params: &SceneParams,
+        medium: Arc<Medium>,
+        volume_source: VolumeSource,
+        base: &Path,
+    ) -> Result<Self> {
         check_march_length(params, &medium)?;
         let camera = Camera::create(&params.camera).map_err(|e| e.within("camera"))?;
         let mut lights = Vec::new();

@@ -29,7 +29,11 @@ const CORE_LAYERS: [&str; 7] = [
 
 fn core_graph() -> Graph {
     let graph = crate_graph(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"));
-    assert!(graph.files.len() > 50, "{} modules found", graph.files.len());
+    assert!(
+        graph.files.len() > 50,
+        "{} modules found",
+        graph.files.len()
+    );
     graph
 }
 
@@ -65,10 +69,7 @@ fn fake(files: &[(&str, &str)]) -> Graph {
         .iter()
         .map(|(m, _)| (module(m), PathBuf::from(format!("{m}.rs"))))
         .collect();
-    let texts: BTreeMap<Module, String> = files
-        .iter()
-        .map(|(m, t)| (module(m), code(t)))
-        .collect();
+    let texts: BTreeMap<Module, String> = files.iter().map(|(m, t)| (module(m), code(t))).collect();
     graph_of(paths, &texts)
 }
 
@@ -92,8 +93,14 @@ fn the_checker_sees_every_form_of_import() {
             "a",
             "mod b; mod pass; mod inner; mod globbed;\npub use inner::Open;\npub use globbed::*;\nuse self::b::Q;",
         ),
-        ("a/b", "use super::{pass::X, y};\npub struct Q;\nuse super::R;"),
-        ("a/pass", "pub struct X;\nfn f() { let _ = crate::a::b::Q; }"),
+        (
+            "a/b",
+            "use super::{pass::X, y};\npub struct Q;\nuse super::R;",
+        ),
+        (
+            "a/pass",
+            "pub struct X;\nfn f() { let _ = crate::a::b::Q; }",
+        ),
         ("a/inner", "pub struct Open;"),
         ("a/globbed", "pub fn far() {}"),
         (
@@ -101,14 +108,32 @@ fn the_checker_sees_every_form_of_import() {
             "use crate::{a::{Open, far}, q};\n// use crate::a::b::Q;\nconst S: &str = \"crate::a::pass::X\";\n#[cfg(test)]\nmod tests { use crate::a::pass::X; }",
         ),
     ]);
-    assert!(edge(&graph, "a/b", "a/pass"), "grouped `use super::{{pass::X}}`");
+    assert!(
+        edge(&graph, "a/b", "a/pass"),
+        "grouped `use super::{{pass::X}}`"
+    );
     assert!(edge(&graph, "a/pass", "a/b"), "inline `crate::a::b::Q`");
-    assert!(edge(&graph, "a", "a/b"), "a `mod.rs` file's `use self::b::Q`");
-    assert!(edge(&graph, "a/b", "a"), "`use super::R` reaching the front door");
-    assert!(edge(&graph, "z", "a/inner"), "nested group through `pub use`");
-    assert!(edge(&graph, "z", "a/globbed"), "a name through `pub use globbed::*`");
+    assert!(
+        edge(&graph, "a", "a/b"),
+        "a `mod.rs` file's `use self::b::Q`"
+    );
+    assert!(
+        edge(&graph, "a/b", "a"),
+        "`use super::R` reaching the front door"
+    );
+    assert!(
+        edge(&graph, "z", "a/inner"),
+        "nested group through `pub use`"
+    );
+    assert!(
+        edge(&graph, "z", "a/globbed"),
+        "a name through `pub use globbed::*`"
+    );
     assert!(!edge(&graph, "z", "a/b"), "a comment is not an import");
-    assert!(!edge(&graph, "z", "a/pass"), "neither a string nor a test module");
+    assert!(
+        !edge(&graph, "z", "a/pass"),
+        "neither a string nor a test module"
+    );
     assert!(!edge(&graph, "", "a/inner"), "a re-export is not an edge");
     let found = circles(&graph);
     assert_eq!(found.len(), 1, "{found:?}");
@@ -129,10 +154,7 @@ fn the_checker_names_an_import_against_the_stages() {
     ]);
     let found = against_layers(&graph, &["volume", "medium"]);
     assert_eq!(found.len(), 1, "{found:?}");
-    assert!(
-        found[0].starts_with("volume → medium (Sigma)"),
-        "{found:?}"
-    );
+    assert!(found[0].starts_with("volume → medium (Sigma)"), "{found:?}");
 }
 
 /// CONTRIBUTING.md's map of the library names every module of the tree, and nothing that
@@ -143,5 +165,9 @@ fn the_map_of_the_library_matches_the_tree() {
     let contributing = std::fs::read_to_string(root.join("../../CONTRIBUTING.md")).unwrap();
     let map = section(&contributing, "### The library");
     let found = map_mismatches(&root.join("src"), map, &["integrator"], &[]);
-    assert!(found.is_empty(), "CONTRIBUTING.md, The library:\n{}", found.join("\n"));
+    assert!(
+        found.is_empty(),
+        "CONTRIBUTING.md, The library:\n{}",
+        found.join("\n")
+    );
 }

@@ -153,20 +153,7 @@ pub(crate) fn run(
         .then(|| RemoveOnDrop(temporary.clone()));
     let base = scene_path.parent().unwrap_or(Path::new("."));
     let scene = pool.install(|| Scene::from_params(params, base, &SearchPath::from_env()))?;
-    // Mitsuba 3.9.1's `heterogeneous` medium bounds the whole grid by one majorant; volphot
-    // with one brick over the whole grid does the same, so this row shows how much of the
-    // ratio is the majorant grid and how much the tracker.
-    let global = {
-        let mut p = params.clone();
-        p.volume.brick_size = scene
-            .medium()
-            .density_grid()
-            .dims()
-            .into_iter()
-            .max()
-            .unwrap_or(1);
-        pool.install(|| Scene::from_params(&p, base, &SearchPath::from_env()))?
-    };
+    let global = pool.install(|| global_majorant(&scene, params, base))?;
     let name = scene_path
         .file_stem()
         .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
@@ -189,24 +176,13 @@ pub(crate) fn run(
         let mut rows = Vec::new();
         let mut agreement = Vec::new();
         for (part, reference) in &references {
-            rows.extend(mitsuba_rows(&mitsuba, *part, reference, &args.peer_spp)?);
-            rows.extend(path_rows(
-                &scene,
+            rows.extend(part_rows(
+                args,
+                &mitsuba,
+                [&scene, &global],
                 *part,
                 reference,
-                &args.peer_spp,
-                args.seeds,
             )?);
-            rows.extend(tracker_rows(
-                "volphot path (global majorant)",
-                &global,
-                Tracker::Weighted,
-                *part,
-                reference,
-                &args.peer_spp,
-                args.seeds,
-            )?);
-            rows.extend(photon_rows(&scene, *part, reference, args.seeds)?);
             agreement.push(agree(&mitsuba, *part, reference, &args.peer_spp)?);
         }
         let first = mitsuba.first().context("Mitsuba rendered nothing")?;
@@ -227,6 +203,51 @@ pub(crate) fn run(
         volphot::write_atomic(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The scene with one majorant brick over the whole grid: Mitsuba 3.9.1's `heterogeneous`
+/// medium bounds the whole grid by one majorant, so this row shows how much of the ratio is
+/// the majorant grid and how much the tracker.
+fn global_majorant(scene: &Scene, params: &SceneParams, base: &Path) -> Result<Scene> {
+    let mut p = params.clone();
+    p.volume.brick_size = scene
+        .medium()
+        .density_grid()
+        .dims()
+        .into_iter()
+        .max()
+        .unwrap_or(1);
+    Ok(Scene::from_params(&p, base, &SearchPath::from_env())?)
+}
+
+/// Every renderer's rows for one part of the light: Mitsuba's, the path tracer's on the
+/// scene and on its copy under one global majorant, the photon renderer's.
+fn part_rows(
+    args: &BenchOptions,
+    mitsuba: &[MitsubaRun],
+    [scene, global]: [&Scene; 2],
+    part: Part,
+    reference: &Reference,
+) -> Result<Vec<Row>> {
+    let mut rows = mitsuba_rows(mitsuba, part, reference, &args.peer_spp)?;
+    rows.extend(path_rows(
+        scene,
+        part,
+        reference,
+        &args.peer_spp,
+        args.seeds,
+    )?);
+    rows.extend(tracker_rows(
+        "volphot path (global majorant)",
+        global,
+        Tracker::Weighted,
+        part,
+        reference,
+        &args.peer_spp,
+        args.seeds,
+    )?);
+    rows.extend(photon_rows(scene, part, reference, args.seeds)?);
+    Ok(rows)
 }
 
 /// Removes a temporary folder when dropped.

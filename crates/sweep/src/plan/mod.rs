@@ -162,6 +162,32 @@ pub(crate) struct Experiment {
     quality: BTreeMap<String, QualityPreset>,
 }
 
+/// The `[tune]` section, checked against the reference it measures errors by.
+fn checked_tune(source: &Source, file: &ExperimentFile) -> Result<Option<TuneSpec>> {
+    let Some(t) = &file.tune else {
+        return Ok(None);
+    };
+    let tune = TuneSpec::from_file(source, t)?;
+    let Some(reference) = &file.reference else {
+        return Err(source.error(
+            "tune",
+            "[tune] needs a [reference] section: the objective measures errors against it (e.g. [reference] method = \"path\", spp = 256)",
+        ));
+    };
+    if reference.method != ReferenceMethod::Path
+        && tune
+            .objective
+            .iter()
+            .any(|(m, _)| *m == Metric::RmseCorrected)
+    {
+        return Err(source.error(
+            "tune.objective",
+            "`rmse_corrected` removes the reference's noise, which only a path-traced reference measures: use [reference] method = \"path\", or objective = \"rmse\"",
+        ));
+    }
+    Ok(Some(tune))
+}
+
 impl Experiment {
     /// Reads and checks an experiment file: parse → base scene → axes and zips → exclude
     /// rules → quality presets → reference → comparisons → plots and sheets.
@@ -185,9 +211,9 @@ impl Experiment {
             .exclude
             .iter()
             .map(|t| {
-                let mut v = Vec::new();
-                flatten_set(t, "", &mut v);
-                v
+                let mut rule = Vec::new();
+                flatten_set(t, "", &mut rule);
+                rule
             })
             .collect();
         let axis_names = checks::AxisNames::new(&source, &dimensions);
@@ -204,28 +230,9 @@ impl Experiment {
                 "`report.explorer_max_side` = 0: expected at least 1 pixel; leave it out for the full resolution",
             ));
         }
-        let tune = file
-            .tune
-            .as_ref()
-            .map(|t| TuneSpec::from_file(&source, t))
-            .transpose()?;
+        let tune = checked_tune(&source, &file)?;
         let tuned = tune.as_ref().map(TuneSpec::axis_keys).unwrap_or_default();
         checks::pair(&axis_names.with(&tuned), file.report.pair.as_ref())?;
-        if tune.is_some() && file.reference.is_none() {
-            return Err(source.error(
-                "tune",
-                "[tune] needs a [reference] section: the objective measures errors against it (e.g. [reference] method = \"path\", spp = 256)",
-            ));
-        }
-        if let (Some(t), Some(r)) = (&tune, &file.reference)
-            && r.method != ReferenceMethod::Path
-            && t.objective.iter().any(|(m, _)| *m == Metric::RmseCorrected)
-        {
-            return Err(source.error(
-                "tune.objective",
-                "`rmse_corrected` removes the reference's noise, which only a path-traced reference measures: use [reference] method = \"path\", or objective = \"rmse\"",
-            ));
-        }
         Ok(Experiment {
             name,
             description: file.description,

@@ -168,23 +168,7 @@ fn card(
         escape::html(&title)
     );
     if let Some(e) = entry.filter(|e| !e.claims.is_empty()) {
-        c += "<ul class=\"claims\">";
-        for claim in &e.claims {
-            let verdict = match claim.as_str() {
-                "§1.1" => {
-                    "does global illumination make medical volume images better? the paper's answer"
-                        .to_string()
-                }
-                other => paper.verdict(other).unwrap_or("").to_string(),
-            };
-            let _ = write!(
-                c,
-                "<li><span class=\"tag\">{}</span>{}</li>",
-                escape::html(claim),
-                escape::html(&verdict)
-            );
-        }
-        c += "</ul>";
+        c += &claims_list(e, paper);
     } else if entry.is_some() {
         c += "<p class=\"meta\">beyond the thesis</p>";
     }
@@ -205,6 +189,35 @@ fn card(
         s.done,
         escape::html(&s.axes.join(", ")),
     );
+    let links = card_links(s, &report, quick);
+    let _ = write!(c, "<p class=\"meta\">{}</p></div>", links.join(" · "));
+    c
+}
+
+/// The claims a card answers, each with the paper's verdict (read from the paper, never
+/// retyped).
+fn claims_list(entry: &paper::Entry, paper: &paper::Paper) -> String {
+    let mut list = "<ul class=\"claims\">".to_string();
+    for claim in &entry.claims {
+        let verdict = match claim.as_str() {
+            "§1.1" => {
+                "does global illumination make medical volume images better? the paper's answer"
+                    .to_string()
+            }
+            other => paper.verdict(other).unwrap_or("").to_string(),
+        };
+        let _ = write!(
+            list,
+            "<li><span class=\"tag\">{}</span>{}</li>",
+            escape::html(claim),
+            escape::html(&verdict)
+        );
+    }
+    list + "</ul>"
+}
+
+/// A card's links: its report, explorer, tables and the default-quality check.
+fn card_links(s: &Study, report: &str, quick: Option<&Study>) -> Vec<String> {
     let mut links = vec![format!("<a href=\"{report}\">report</a>")];
     if s.has_html {
         links.push(format!("<a href=\"{report}#explorer\">image explorer</a>"));
@@ -229,8 +242,7 @@ fn card(
             escape::html(&q.folder)
         ));
     }
-    let _ = write!(c, "<p class=\"meta\">{}</p></div>", links.join(" · "));
-    c
+    links
 }
 
 /// The committed benchmark files (`bench/*.json`), by name.
