@@ -71,31 +71,31 @@ mod volume;
 pub mod test_util;
 
 pub use control::Control;
-pub use error::{Error, Result, check_non_negative, check_positive, check_range};
+pub use error::{Error, Result, check_non_negative};
 pub use film::{
     Agreement, Film, Layer, agreement, luminance, mean_rgb, read_pfm, rmse, to_srgb8, write_pfm,
     write_png, write_png_rgb8,
 };
 pub use integrator::{
-    Budget, CACHE_TAU_MAX, CacheError, CpuSplit, ErrorBound, EyeProbe, LayerVariance, MAX_VERTICES,
-    MarchOutput, MarchStats, MsVariant, PixelClass, ProgressiveOutput, ProgressiveStats,
-    ReferenceAccumulator, Route, SOURCES, Source, StopReason, ThinningError, Variant,
-    error_probe_pixels, next_radius, probe_eye_rays, progress_rows, reference_budget, render_march,
-    render_march_beams, render_march_planes, render_progressive, render_reference,
+    Budget, CACHE_TAU_MAX, CacheError, CpuSplit, ErrorBound, EyeProbe, LayerVariance, MarchOutput,
+    MarchStats, MsVariant, PixelClass, ProgressiveOutput, ProgressiveStats, ReferenceAccumulator,
+    Route, SOURCES, Source, StopReason, ThinningError, Variant, error_probe_pixels, next_radius,
+    probe_eye_rays, progress_rows, reference_budget, render_march, render_march_beams,
+    render_march_planes, render_progressive, render_reference,
 };
-pub use math::{Aabb, Domain, Frame, INV_4PI, Ray, Rng, Sphere, mix64, uniform_sphere};
+pub use math::{
+    Aabb, AliasTable, Domain, Frame, PiecewiseConstant1D, PiecewiseConstant2D, Ray, Rng, Sphere,
+};
 pub use medium::{
     ClipParams, ClipPlaneParams, ClipRegion, ClipSpace, Coefficients, ColourTransfer,
-    CropBoxParams, DEFAULT_BRICK_SIZE, FreePath, HalfSpace, MIN_MEAN_FREE_PATH, MajorantGrid,
-    MajorantSegment, MajorantSegments, MappingKind, Medium, MediumSettings, Pgm, Phase,
-    SigmaMapping, SigmaParams, SigmaReport, Split, THESIS_ALBEDO, THESIS_T, TransferFunction,
-    TransferKind, TransferParams, ViewFrame, blocked_depth, parse_pgm, sample_interaction_march,
-    sample_interaction_thesis, write_pgm,
+    CropBoxParams, FreePath, HalfSpace, MIN_MEAN_FREE_PATH, MajorantGrid, MajorantSegment,
+    MajorantSegments, MappingKind, Medium, MediumSettings, Pgm, Phase, SigmaMapping, SigmaParams,
+    SigmaReport, Split, THESIS_ALBEDO, THESIS_T, TransferFunction, TransferKind, TransferParams,
+    ViewFrame, blocked_depth, sample_interaction_march, sample_interaction_thesis, write_pgm,
 };
 pub use photon::{
-    BeamMap, BeamRadius, Crossing, GatherScratch, GatherVariant, Gathered, MAX_INTERACTIONS,
-    Photon, PhotonMap, PhotonPlane, PhotonStats, PlaneCrossing, PlaneMap, TraceSettings,
-    photons_per_light, trace, trace_planes,
+    BeamMap, BeamRadius, Crossing, GatherScratch, GatherVariant, Gathered, Photon, PhotonMap,
+    PhotonPlane, PhotonStats, PlaneCrossing, PlaneMap, TraceSettings, trace, trace_planes,
 };
 pub use render::{
     Provenance, RenderOutput, RenderRecord, SharedFilm, SharedRender, Timings, build_photon_map,
@@ -109,23 +109,23 @@ pub use scene::{
     DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW, EnvironmentLight, EnvironmentMap,
     EnvironmentSource, Estimate, EyeRays, FilmParams, Incident, InitialRadius, IntegratorParams,
     Intensity, Light, LightContext, LightKind, LightParams, LightingStyle, MAX_MARCH_STEPS,
-    MAX_PHOTONS, Method, MitsubaExport, MsEstimator, NormalizeKind, PbrtImport, PhaseParams,
-    PointLight, Quadrature, RadiusRule, SKY_MAP_WIDTH, Scene, SceneParams, ShadowEstimator,
-    SkyColours, SpotFalloff, SpotLight, Sun, ThreePointParams, Tracker, Unmapped, VolumeParams,
-    build_medium, export_mitsuba, import_pbrt, key_at, line_col, load_params, load_volume, locate,
-    locate_error, three_point, toml_error, validate_params,
+    MAX_PHOTONS, Method, MitsubaExport, MsEstimator, NormalizeKind, PassCost, PbrtImport,
+    PhaseParams, PointLight, Quadrature, RadiusRule, SKY_MAP_WIDTH, Scene, SceneParams,
+    ShadowEstimator, SkyColours, SpotFalloff, SpotLight, Sun, ThreePointParams, Tracker, Unmapped,
+    VolumeParams, build_medium, export_mitsuba, import_pbrt, key_at, line_col, load_params,
+    load_volume, locate, locate_error, three_point, toml_error, validate_params,
 };
 pub use util::{
-    TEXT_INPUT_CAP, byte_size, cache_dir, confined, escaped_prefix, hostname, is_stale_temp,
+    TEXT_INPUT_CAP, byte_size, confined, escaped_prefix, hostname, is_stale_temp,
     memory_budget_bytes, open_regular, peak_memory_bytes, process_cpu_seconds, read_bytes_capped,
     read_text_capped, sha256_bytes, sha256_cached, sha256_content, sha256_file, temp_sibling,
-    write_atomic, write_atomic_with,
+    write_atomic,
 };
 pub use volume::{
     Acquisition, ByteOrder, DATASETS, DatasetInfo, DatasetOverrides, DatasetStatus, DicomInput,
     FileRequest, Grid, LoadedVoxels, Normalization, NormalizationRecord, Orientation,
     PhantomParams, Placement, RawLayout, Reconstruction, SearchPath, Volume, VolumeSource,
-    VoxelType, check_dims, find_dataset, is_nifti, load_dataset, read_dicom_series,
-    read_dicom_volume, read_metaimage, read_nifti, read_nrrd, read_volume, read_voxels,
-    survey_datasets, write_metaimage, write_nrrd,
+    VoxelType, check_dims, find_dataset, load_dataset, read_dicom_series, read_dicom_volume,
+    read_metaimage, read_nifti, read_nrrd, read_volume, read_voxels, survey_datasets,
+    write_metaimage, write_nrrd,
 };

@@ -18,8 +18,7 @@ use crate::integrator::{
 use crate::medium::{FreePath, SigmaReport};
 use crate::photon::{PhotonMap, PhotonStats, TraceSettings, trace};
 use crate::scene::{
-    Estimate, IntegratorParams, Method, MsEstimator, Quadrature, Scene, SceneParams,
-    ShadowEstimator,
+    Estimate, IntegratorParams, Method, Quadrature, Scene, SceneParams, ShadowEstimator,
 };
 use crate::util::peak_memory_bytes;
 use crate::volume::{NormalizationRecord, VolumeSource};
@@ -249,7 +248,7 @@ fn render_each(
 /// image `rows` high: one march, or each variant's own render in turn.
 pub fn shared_progress_units(variants: &[IntegratorParams], rows: u32) -> u64 {
     match variants.first() {
-        Some(v) if v.method == Method::Photon && v.estimator != MsEstimator::Points => {
+        Some(v) if v.method == Method::Photon && v.estimator.iterates() => {
             variants.iter().map(|v| progress_rows(v, rows)).sum()
         }
         _ => rows as u64,
@@ -262,7 +261,7 @@ pub fn march_key(params: &SceneParams) -> String {
     let mut p = params.clone();
     // Progressive and beam renders march per iteration or per photon set: each renders
     // alone, so its time is its own.
-    if p.integrator.method == Method::Photon && p.integrator.estimator != MsEstimator::Points {
+    if p.integrator.method == Method::Photon && p.integrator.estimator.iterates() {
         return serde_json::to_string(&p).expect("scene params serialise");
     }
     p.integrator.volume_photons = 0;
@@ -343,7 +342,7 @@ pub fn render_shared(
     if scene.integrator().method == Method::Reference {
         return render_reference_shared(scene, variants.len(), control);
     }
-    if scene.integrator().estimator != MsEstimator::Points {
+    if scene.integrator().estimator.iterates() {
         return render_each(scene, variants, control);
     }
     let shared = SharedMaps::build(scene, variants, control)?;

@@ -10,8 +10,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::Vec3;
 
 use super::multiple::mask_estimates;
-use crate::math::{Aabb, Ray};
-use crate::medium::Medium;
+use crate::math::Aabb;
+use crate::medium::{DepthCap, Medium, ShadowSegment};
 use crate::photon::{GatherScratch, GatherVariant, PhotonMap};
 use crate::scene::Light;
 
@@ -80,26 +80,35 @@ impl NodeLattice {
     }
 }
 
-/// Per-light cache of the optical depth to the light at lattice nodes, filled lazily (each
-/// node depends only on its own position, so the result does not depend on thread order).
+/// Per-light cache of the optical depth to a delta light at lattice nodes, filled lazily
+/// (each node depends only on its own position, so the result does not depend on thread
+/// order). Only a light with one position has one: a light with extent or an environment
+/// has no single direction a node's depth could be taken towards.
 pub(super) struct TransmittanceCache {
     lattice: NodeLattice,
+    /// The light's position.
+    light: Vec3,
     tau: Vec<OnceLock<f32>>,
     pub(super) computed: AtomicU64,
 }
 
 impl TransmittanceCache {
-    pub(super) fn new(bounds: Aabb, res: u32) -> Self {
+    /// The cache of `light` over `bounds` at `res` nodes a side, or `None` for a light
+    /// without one position.
+    pub(super) fn towards(light: &Light, bounds: Aabb, res: u32) -> Option<Self> {
+        let light = light.delta_position()?;
         let lattice = NodeLattice::new(bounds, res);
         let tau = (0..lattice.len()).map(|_| OnceLock::new()).collect();
-        TransmittanceCache {
+        Some(TransmittanceCache {
             lattice,
+            light,
             tau,
             computed: AtomicU64::new(0),
-        }
+        })
     }
 
-    pub(super) fn transmittance(&self, medium: &Medium, light: &Light, p: Vec3) -> f32 {
+    /// The transmittance from `p` to the light, interpolated between the nodes' depths.
+    pub(super) fn transmittance(&self, medium: &Medium, p: Vec3) -> f32 {
         let mut tau = 0.0;
         for (idx, w) in self.lattice.corners(p) {
             if w == 0.0 {
@@ -108,18 +117,17 @@ impl TransmittanceCache {
             let node_tau = *self.tau[idx].get_or_init(|| {
                 self.computed.fetch_add(1, Ordering::Relaxed);
                 let node = self.lattice.position(idx);
-                let to_light = light.position() - node;
+                let to_light = self.light - node;
                 let distance = to_light.length();
                 if distance <= 0.0 {
                     return 0.0;
                 }
-                let ray = Ray::new(node, to_light);
-                match medium.clip(&ray) {
-                    Some((t0, t1)) => {
-                        medium.optical_depth_exact(&ray, t0, t1.min(distance), CACHE_TAU_MAX)
-                    }
-                    None => 0.0,
-                }
+                let segment = ShadowSegment {
+                    origin: node,
+                    direction: to_light.normalize(),
+                    distance,
+                };
+                medium.shadow_depth(&segment, DepthCap::Exact(CACHE_TAU_MAX))
             });
             tau += w * node_tau;
         }

@@ -24,7 +24,7 @@ use super::eye_ray::Evaluation;
 use super::marcher::Marcher;
 use super::sample::Accumulator;
 use super::thinning::ThinningError;
-use crate::medium::Medium;
+use crate::medium::{DepthCap, Medium, ShadowSegment};
 use crate::scene::Camera;
 
 /// Eye rays (pixels) probed per image axis.
@@ -213,8 +213,10 @@ impl Marcher<'_> {
                         continue;
                     };
                     let scale = mean3(inc.radiance) * self.medium.phase().eval(-inc.to_light, wo);
-                    let cache = &self.shadow_caches.as_ref().expect("shadow caches")[li];
-                    cached += scale * cache.transmittance(self.medium, light, x);
+                    let cache = self.shadow_caches.as_ref().expect("shadow caches")[li]
+                        .as_ref()
+                        .expect("a delta light, which has a cache");
+                    cached += scale * cache.transmittance(self.medium, x);
                     exact +=
                         scale * exact_transmittance(self.medium, x, inc.to_light, inc.distance);
                 }
@@ -227,16 +229,12 @@ impl Marcher<'_> {
 
 /// `exp(−τ)` with τ integrated exactly (no termination).
 fn exact_transmittance(medium: &Medium, x: Vec3, to_light: Vec3, distance: f32) -> f32 {
-    let ray = crate::math::Ray {
+    let segment = ShadowSegment {
         origin: x,
         direction: to_light,
+        distance,
     };
-    match medium.clip(&ray) {
-        Some((t0, t1)) => {
-            (-medium.optical_depth_exact(&ray, t0, t1.min(distance), f32::INFINITY)).exp()
-        }
-        None => 1.0,
-    }
+    (-medium.shadow_depth(&segment, DepthCap::Exact(f32::INFINITY))).exp()
 }
 
 fn mean3(v: Vec3) -> f32 {

@@ -24,6 +24,7 @@ use super::sample::{Accumulator, RaySample};
 use super::shadow_track::ShadowTrack;
 use super::thinning::Bands;
 use crate::math::{Ray, Rng};
+use crate::medium::{ShadowBy, ShadowSegment, transmittance_of};
 use crate::scene::{Quadrature, ShadowEstimator};
 use crate::volume::CellCursor;
 
@@ -351,46 +352,31 @@ impl Marcher<'_> {
         distance: f32,
         rng: &mut Rng,
     ) -> f32 {
-        let light = &self.lights[light_index];
         // The cache holds each lattice node's depth towards one point: delta lights only.
-        if let Some(caches) = self.shadow_caches.as_ref().filter(|_| light.is_delta()) {
-            return caches[light_index].transmittance(self.medium, light, p);
+        if let Some(cache) = self
+            .shadow_caches
+            .as_ref()
+            .and_then(|c| c[light_index].as_ref())
+        {
+            return cache.transmittance(self.medium, p);
         }
-        let ray = Ray {
+        let segment = ShadowSegment {
             origin: p,
             direction: to_light,
+            distance,
         };
-        let Some((t0, t1)) = self.medium.clip(&ray) else {
-            return 1.0;
-        };
-        let t1 = t1.min(distance);
         let tau_max = self.shadow_tau_max;
-        match self.settings.shadow {
-            ShadowEstimator::Exact => transmittance_of(
-                self.medium.optical_depth_capped(&ray, t0, t1, tau_max),
-                tau_max,
-            ),
+        let by = match self.settings.shadow {
+            ShadowEstimator::Exact => ShadowBy::Exact { tau_max },
             // A marched shadow ray stops, like the eye ray, once its transmittance drops
             // below `termination`: the light it could still carry is below that fraction.
-            ShadowEstimator::March => {
-                let step = self.settings.stepsize;
-                let tau = self.medium.optical_depth_marched_until(
-                    &ray,
-                    t0,
-                    t1,
-                    step,
-                    rng.uniform(),
-                    tau_max,
-                );
-                transmittance_of(tau, tau_max)
-            }
-            ShadowEstimator::Ratio => self.medium.transmittance_ratio_tracking(&ray, t0, t1, rng),
-        }
+            ShadowEstimator::March => ShadowBy::Marched {
+                step: self.settings.stepsize,
+                tau_max,
+                rng,
+            },
+            ShadowEstimator::Ratio => ShadowBy::Ratio(rng),
+        };
+        self.medium.shadow_transmittance(&segment, by)
     }
-}
-
-/// Transmittance from an optical depth; beyond `tau_max` the light counts as blocked.
-#[inline]
-fn transmittance_of(tau: f32, tau_max: f32) -> f32 {
-    if tau > tau_max { 0.0 } else { (-tau).exp() }
 }

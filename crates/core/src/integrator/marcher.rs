@@ -34,7 +34,8 @@ pub(super) struct Marcher<'a> {
     pub(super) groups: Vec<MapGroup<'a>>,
     /// Where the multiple term comes from: the groups' gathers, beams or planes.
     pub(super) source: MsSource<'a>,
-    pub(super) shadow_caches: Option<Vec<TransmittanceCache>>,
+    /// Each light's transmittance cache (`None` for a light without one position).
+    pub(super) shadow_caches: Option<Vec<Option<TransmittanceCache>>>,
     /// `−ln(termination)`: optical depth at which a marched shadow ray counts as blocked.
     pub(super) shadow_tau_max: f32,
     /// The largest spacing of gathers in a thinned band, in samples.
@@ -77,7 +78,7 @@ impl<'a> Marcher<'a> {
                 scene
                     .lights()
                     .iter()
-                    .map(|_| TransmittanceCache::new(bounds, settings.shadow_cache))
+                    .map(|light| TransmittanceCache::towards(light, bounds, settings.shadow_cache))
                     .collect()
             }),
             replay,
@@ -161,7 +162,12 @@ impl Marcher<'_> {
         let shadow = self
             .shadow_caches
             .as_ref()
-            .map(|c| c.iter().map(|c| c.computed.load(Ordering::Relaxed)).sum())
+            .map(|c| {
+                c.iter()
+                    .flatten()
+                    .map(|c| c.computed.load(Ordering::Relaxed))
+                    .sum()
+            })
             .unwrap_or(0);
         let multiple = self
             .groups

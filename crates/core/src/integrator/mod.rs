@@ -98,7 +98,7 @@ pub use progressive::{
     ProgressiveOutput, ProgressiveStats, StopReason, next_radius, progress_rows, render_progressive,
 };
 pub use reference::{
-    Budget, CpuSplit, LayerVariance, MAX_VERTICES, PixelClass, ReferenceAccumulator, Route,
-    SOURCES, Source, Variant, reference_budget, render_reference,
+    Budget, CpuSplit, LayerVariance, PixelClass, ReferenceAccumulator, Route, SOURCES, Source,
+    Variant, reference_budget, render_reference,
 };
 pub use thinning::ThinningError;

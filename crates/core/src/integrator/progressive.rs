@@ -37,9 +37,7 @@ use crate::film::{Film, Layer};
 use crate::photon::{
     BeamMap, PhotonMap, PhotonPlane, PhotonStats, PlaneMap, TraceSettings, trace, trace_planes,
 };
-use crate::scene::{
-    EyeRays, InitialRadius, IntegratorParams, Method, MsEstimator, RadiusRule, Scene,
-};
+use crate::scene::{EyeRays, IntegratorParams, Kernel, MsEstimator, Scene, Traces};
 
 /// What a progressive render did.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -112,18 +110,12 @@ pub struct ProgressiveOutput {
 /// `d = 3` for the point estimate's ball, `d = 2` for the beam estimate (its kernel,
 /// integrated along the ray, is a disc across it), `d = 1` for the planes' blur.
 pub fn next_radius(radius: f32, i: u32, alpha: f32, estimator: MsEstimator) -> f32 {
-    let ratio = (i as f32 + alpha) / (i as f32 + 1.0);
-    match estimator {
-        MsEstimator::Plane => radius * ratio,
-        MsEstimator::Beam => radius * ratio.sqrt(),
-        MsEstimator::Points | MsEstimator::Progressive => radius * ratio.cbrt(),
-    }
+    estimator.shrink(radius, (i as f32 + alpha) / (i as f32 + 1.0))
 }
 
 /// Progress units of a render: image rows per march, times the iterations.
 pub fn progress_rows(settings: &IntegratorParams, rows: u32) -> u64 {
-    let iterative = settings.estimator != MsEstimator::Points;
-    if iterative && settings.multiple && settings.method == Method::Photon {
+    if settings.iterates() {
         rows as u64 * settings.iterations as u64
     } else {
         rows as u64
@@ -153,9 +145,7 @@ pub fn render_progressive(scene: &Scene, control: &Control<'_>) -> Result<Progre
     for i in 1..=s.iterations {
         let traced = trace_iteration(scene, &s, i, photons, control)?;
         if let (1, Traced::Map(map)) = (i, &traced)
-            && s.initial_radius == InitialRadius::Nused
-            && s.estimator == MsEstimator::Progressive
-            && !per_photon_points(&s)
+            && s.estimator.sizes_first_radius_from_map(&s)
         {
             radius = median_nused_distance(map, s.nused, s.maxdist);
         }
@@ -333,24 +323,9 @@ fn check_reference(scene: &Scene, s: &IntegratorParams, control: &Control<'_>) -
     }
 }
 
-/// The radius of the first iteration: the point estimate's gather radius (`maxdist`,
-/// replaced by the first map's median `nused`-th-neighbour distance when asked), the
-/// beams' scale of their own radii, or the planes' blur half-width.
+/// The radius of the first iteration ([`MsEstimator::first_radius`]).
 fn first_radius(s: &IntegratorParams) -> f32 {
-    match s.estimator {
-        MsEstimator::Beam => 1.0,
-        MsEstimator::Progressive if per_photon_points(s) => 1.0,
-        MsEstimator::Points | MsEstimator::Progressive | MsEstimator::Plane => s.maxdist,
-    }
-}
-
-/// Whether the progressive point estimate sizes its kernels per photon (a `nearest` or
-/// `balanced` radius rule from the `nused`-th neighbours): then its "radius" is the scale
-/// of the photons' own radii, as for the beams.
-fn per_photon_points(s: &IntegratorParams) -> bool {
-    s.estimator == MsEstimator::Progressive
-        && s.initial_radius == InitialRadius::Nused
-        && matches!(s.radius, RadiusRule::Nearest | RadiusRule::Balanced)
+    s.estimator.first_radius(s)
 }
 
 /// What one iteration traced: a photon map, or the paths' flights as planes.
@@ -392,12 +367,12 @@ fn trace_iteration(
         seed: s.seed ^ ((i as u64) << 40),
     };
     let (medium, lights) = (scene.medium(), scene.lights());
-    Ok(match s.estimator {
-        MsEstimator::Plane => {
+    Ok(match s.estimator.traces() {
+        Traces::Planes => {
             let (planes, stats) = trace_planes(medium, lights, &settings, control)?;
             Traced::Planes(planes, stats)
         }
-        _ => {
+        Traces::Photons => {
             let (photons, stats) = trace(medium, lights, &settings, control)?;
             Traced::Map(PhotonMap::new(photons, stats))
         }
@@ -457,13 +432,15 @@ fn march_iteration(
         }
         Traced::Map(map) => map,
     };
-    if s.estimator == MsEstimator::Beam || per_photon_points(s) {
+    let kernel = s.estimator.kernel(s);
+    if matches!(kernel, Kernel::Beams | Kernel::Spheres) {
         let start = Instant::now();
         let beams = BeamMap::new(map, beam_radius(s, radius), scene.medium(), beam_masked(s));
         let build_seconds = start.elapsed().as_secs_f64();
-        let source = match s.estimator {
-            MsEstimator::Beam => MsSource::Beams(&beams),
-            _ => MsSource::Spheres(&beams),
+        let source = if kernel == Kernel::Beams {
+            MsSource::Beams(&beams)
+        } else {
+            MsSource::Spheres(&beams)
         };
         let (out, eye_samples) = photons_measured(&scene, source, control, measure, eye)?;
         // The hierarchy is a search structure built once per map, like a kd-tree: its
@@ -567,9 +544,7 @@ mod tests {
         for i in 1..=iterations {
             let map = trace_iteration(scene, &s, i, s.photons_per_iteration, &control).unwrap();
             if let (1, Traced::Map(m)) = (i, &map)
-                && s.initial_radius == InitialRadius::Nused
-                && s.estimator == MsEstimator::Progressive
-                && !per_photon_points(&s)
+                && s.estimator.sizes_first_radius_from_map(&s)
             {
                 radius = median_nused_distance(m, s.nused, s.maxdist);
             }

@@ -7,8 +7,7 @@ use super::adaptive_fill::{Track, fill_adaptive, fill_span, fraction};
 use super::marcher::Marcher;
 use super::sample::RaySample;
 use super::thinning::{BANDS, Bands};
-use crate::math::Ray;
-use crate::medium::blocked_depth;
+use crate::medium::{DepthCap, ShadowSegment, blocked_depth};
 use crate::scene::Light;
 
 /// The optical depth from each sample to one light, capped just above the blocking depth
@@ -51,18 +50,14 @@ impl Track for ShadowTrack<'_> {
         let x = self.samples[i].x;
         self.tau[i] = match self.light.incident(x) {
             None => blocked,
-            Some(inc) => {
-                let ray = Ray {
+            Some(inc) => medium.shadow_depth(
+                &ShadowSegment {
                     origin: x,
                     direction: inc.to_light,
-                };
-                match medium.clip(&ray) {
-                    None => 0.0,
-                    Some((t0, t1)) => {
-                        medium.optical_depth_capped(&ray, t0, t1.min(inc.distance), tau_max)
-                    }
-                }
-            }
+                    distance: inc.distance,
+                },
+                DepthCap::Blocked(tau_max),
+            ),
         };
     }
 

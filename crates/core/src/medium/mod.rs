@@ -20,6 +20,7 @@ mod majorant;
 mod march;
 mod optical_depth;
 mod phase;
+mod shadow;
 mod sigma;
 mod transfer;
 
@@ -33,11 +34,13 @@ pub use free_path::{FreePath, sample_interaction_march, sample_interaction_thesi
 pub use majorant::{MajorantGrid, MajorantSegment, MajorantSegments};
 pub use optical_depth::blocked_depth;
 pub use phase::Phase;
+pub(crate) use shadow::transmittance_of;
+pub use shadow::{DepthCap, ShadowBy, ShadowSegment};
 pub use sigma::{
     Coefficients, MIN_MEAN_FREE_PATH, MappingKind, SigmaMapping, SigmaParams, SigmaReport, Split,
     THESIS_ALBEDO, THESIS_T,
 };
-pub use transfer::{Pgm, TransferFunction, TransferKind, TransferParams, parse_pgm, write_pgm};
+pub use transfer::{Pgm, TransferFunction, TransferKind, TransferParams, write_pgm};
 
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Ray, Sphere};

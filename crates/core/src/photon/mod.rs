@@ -14,4 +14,4 @@ pub use beams::{BeamMap, BeamRadius, Crossing};
 pub use estimate::{GatherScratch, GatherVariant};
 pub use map::{Gathered, PhotonMap};
 pub use planes::{PhotonPlane, PlaneCrossing, PlaneMap, trace_planes};
-pub use trace::{MAX_INTERACTIONS, Photon, PhotonStats, TraceSettings, photons_per_light, trace};
+pub use trace::{Photon, PhotonStats, TraceSettings, trace};

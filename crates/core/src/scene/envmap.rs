@@ -26,6 +26,7 @@ use glam::{DVec3, Vec3};
 
 use super::light::incident::MAX_INTENSITY;
 use crate::error::{Error, Result};
+use crate::math::PiecewiseConstant2D;
 use crate::util::{PfmChannels, read_pfm_bounded};
 use crate::util::{byte_size, memory_budget_bytes, open_regular};
 
@@ -56,15 +57,10 @@ pub struct EnvironmentMap {
     width: usize,
     height: usize,
     texels: Vec<Vec3>,
-    /// For each row, the running sum over its columns of each texel's sampling weight,
-    /// mean(RGB) × solid angle: entry `row·W + c` sums columns `0..=c` of that row.
-    column_cdf: Vec<f64>,
-    /// The running sum of the rows' weights; each row's weight is exactly the last entry
-    /// of its column CDF, so a row chosen here always has a column with weight.
-    row_cdf: Vec<f64>,
-    /// Σ mean(RGB) × solid angle over every texel: the sampling pdf's normaliser (0 for a
-    /// black map, which is never sampled).
-    total: f64,
+    /// Each texel's sampling weight, mean(RGB) × solid angle, as a 2-D distribution
+    /// (marginal over rows, conditional over columns); its total is the sampling pdf's
+    /// normaliser (0 for a black map, which is never sampled).
+    distribution: PiecewiseConstant2D,
     /// ∫ L dω over the sphere.
     integral: Vec3,
     /// The largest texel value of each channel.
@@ -192,15 +188,9 @@ impl EnvironmentMap {
     /// chosen CDF interval becomes the position inside the texel, so stratified `u` stay
     /// stratified on the sphere.
     pub fn sample(&self, u: [f32; 2]) -> Option<(Vec3, f32, Vec3)> {
-        if self.total <= 0.0 || !self.total.is_finite() {
-            return None;
-        }
-        let (row, f_row) = search(&self.row_cdf, unit_interval(u[0]) * self.total);
-        let start = row * self.width;
-        let columns = &self.column_cdf[start..start + self.width];
-        let row_weight = columns[self.width - 1];
-        let (column, f_column) = search(columns, unit_interval(u[1]) * row_weight);
-        let chosen = start + column;
+        let (row, f_row, column, f_column) =
+            self.distribution.sample([u[0] as f64, u[1] as f64])?;
+        let chosen = row * self.width + column;
         let mut d = self.texel_point(row, f_row, column, f_column);
         if self.texel_of(d) != chosen {
             // Rounding carried a point on the texel's edge into its neighbour (which may be
@@ -238,27 +228,23 @@ impl EnvironmentMap {
         black: BlackMap,
     ) -> std::result::Result<Self, Invalid> {
         check_texels(width, height, &texels)?;
-        let mut column_cdf = Vec::with_capacity(texels.len());
-        let mut row_cdf = Vec::with_capacity(height);
-        let mut total = 0.0;
         let mut integral = DVec3::ZERO;
         let mut brightest = Vec3::ZERO;
         for (row, texels) in texels.chunks_exact(width).enumerate() {
             let omega = texel_solid_angle(row, width, height);
-            // Summed in f64: a large map's CDF would lose its small texels in f32.
-            let mut running = 0.0;
             let mut sum = DVec3::ZERO;
             for &t in texels {
-                running += mean_rgb(t) * omega;
-                column_cdf.push(running);
                 sum += t.as_dvec3();
                 brightest = brightest.max(t);
             }
-            total += running;
-            row_cdf.push(total);
             integral += sum * omega;
         }
-        if total <= 0.0 && black == BlackMap::Refused {
+        // Summed in f64 (the toolkit's sums): a large map's would lose its small texels in
+        // f32.
+        let distribution = PiecewiseConstant2D::new(width, height, |row, column| {
+            mean_rgb(texels[row * width + column]) * texel_solid_angle(row, width, height)
+        });
+        if distribution.total() <= 0.0 && black == BlackMap::Refused {
             return Err(Invalid {
                 value: "is black everywhere".to_string(),
                 expected: "at least one texel above zero (an environment map that emits \
@@ -270,9 +256,7 @@ impl EnvironmentMap {
             width,
             height,
             texels,
-            column_cdf,
-            row_cdf,
-            total,
+            distribution,
             integral: integral.as_vec3(),
             brightest,
         })
@@ -290,10 +274,11 @@ impl EnvironmentMap {
     /// The solid-angle pdf inside texel `index`: its weight mean·Ω over the total, divided
     /// by its solid angle Ω.
     fn texel_pdf(&self, index: usize) -> f32 {
-        if self.total <= 0.0 {
+        let total = self.distribution.total();
+        if total <= 0.0 {
             return 0.0;
         }
-        (mean_rgb(self.texels[index]) / self.total) as f32
+        (mean_rgb(self.texels[index]) / total) as f32
     }
 
     /// The direction at fraction `f_row` of the way down texel row `row` in cos θ and
@@ -384,36 +369,6 @@ fn direction_to_uv(d: Vec3) -> (f64, f64) {
     // equals acos(d.y) for a unit d.
     let v = d.x.hypot(d.z).atan2(d.y) / std::f64::consts::PI;
     (u, v)
-}
-
-/// A sample coordinate clamped into [0, 1) (a NaN reads as 0).
-fn unit_interval(u: f32) -> f64 {
-    if u.is_nan() {
-        0.0
-    } else {
-        (u as f64).clamp(0.0, ONE_BELOW)
-    }
-}
-
-/// The first entry of a running-sum `cdf` strictly above `target` (so an entry of weight
-/// zero is never chosen), and where `target` falls inside that entry's interval, in [0, 1).
-fn search(cdf: &[f64], target: f64) -> (usize, f64) {
-    let below = |i: usize| if i == 0 { 0.0 } else { cdf[i - 1] };
-    let mut i = cdf.partition_point(|&c| c <= target);
-    if i == cdf.len() {
-        // Only when rounding put `target` at the total: take the last entry with weight.
-        i = (0..cdf.len())
-            .rev()
-            .find(|&j| cdf[j] > below(j))
-            .unwrap_or(cdf.len() - 1);
-    }
-    let width = cdf[i] - below(i);
-    let f = if width > 0.0 {
-        ((target - below(i)) / width).clamp(0.0, ONE_BELOW)
-    } else {
-        0.5
-    };
-    (i, f)
 }
 
 /// Refuses, from its header, a map with more texels than [`MAX_TEXELS`] or than half the

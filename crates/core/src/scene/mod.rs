@@ -39,6 +39,7 @@ mod camera;
 mod diagnostics;
 mod environment;
 mod envmap;
+mod estimator;
 mod export;
 mod light;
 mod params;
@@ -53,6 +54,7 @@ pub use camera::{Camera, CameraParams};
 pub use diagnostics::{key_at, line_col, locate, locate_error, toml_error};
 pub use environment::{EnvironmentLight, EnvironmentSource, SKY_MAP_WIDTH, SkyColours, Sun};
 pub use envmap::EnvironmentMap;
+pub use estimator::{Estimate, InitialRadius, Kernel, MsEstimator, PassCost, RadiusRule, Traces};
 pub use export::{MitsubaExport, export_mitsuba};
 pub use light::{
     CINEMATIC_KEY_DEGREES, Incident, Intensity, Light, LightContext, LightKind, LightParams,
@@ -64,9 +66,8 @@ pub use params::{
 };
 pub use pbrt::{PbrtImport, Unmapped, import_pbrt};
 pub use settings::{
-    DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW, Estimate, EyeRays, FilmParams,
-    InitialRadius, IntegratorParams, MAX_PHOTONS, Method, MsEstimator, Quadrature, RadiusRule,
-    ShadowEstimator, Tracker,
+    DEFAULT_ALPHA, DEFAULT_SHADOW_TOLERANCE, DEFAULT_THIN_BELOW, EyeRays, FilmParams,
+    IntegratorParams, MAX_PHOTONS, Method, Quadrature, ShadowEstimator, Tracker,
 };
 
 use crate::error::Result;

@@ -35,6 +35,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::estimator::{
+    Estimate, EstimatorSettings, ITERATION_KEYS, InitialRadius, MsEstimator, RadiusRule,
+};
 use crate::error::{Error, Result, check_range};
 use crate::medium::FreePath;
 
@@ -96,67 +99,6 @@ pub enum Quadrature {
     Riemann,
 }
 
-/// Radiance estimate form (§5.2, eq. 11).
-///
-/// Photons are stored at every interaction, i.e. at rate σt along their paths, so
-/// `Σ ΔΦ / V` estimates `σt·φ` averaged over the gather sphere (φ the fluence), while the
-/// in-scattering source term is `σs(x)·p·φ(x)`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Estimate {
-    /// `σs(x)·Σ p·ΔΦ_p / (σt(x_p)·V_m)` with `V_m` the part of the gather sphere that holds
-    /// medium (σt > 0): photons exist only there, so dividing by the whole sphere dilutes
-    /// the estimate wherever the sphere reaches into empty space (thin bone, surfaces).
-    /// `V_m` is estimated from 32 fixed points in the sphere. The default.
-    Masked,
-    /// `σs(x)·Σ p·ΔΦ_p / (σt(x_p)·4/3 π r³)`: each photon's power over σt where it was
-    /// stored estimates the fluence, which is continuous across density edges; then the
-    /// local σs is applied. Consistent inside the medium, biased low near its boundaries.
-    Fluence,
-    /// `Λ·Σ p·ΔΦ/(4/3 π r³)`: fixes eq. 11's missing albedo factor but, like eq. 11, assumes
-    /// σt constant over the gather sphere, so dense tissue lights thin neighbours.
-    Albedo,
-    /// `Σ p·ΔΦ/(4/3 π r³)` exactly as eq. 11 ("σs cancels"): too bright by `1/Λ` and biased
-    /// at density edges.
-    Thesis,
-}
-
-/// How the multiple-scattering term is estimated from photons.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum MsEstimator {
-    /// The thesis's point estimate: `nused` nearest photons at every marching sample.
-    Points,
-    /// Progressive photon mapping (Knaus & Zwicker 2011, in 3-D): `iterations` independent
-    /// photon maps, fixed-radius gathers whose radius shrinks by `((i + α)/(i + 1))^{1/3}`
-    /// per iteration, the image their running mean: consistent — it converges to the
-    /// unbiased solution.
-    Progressive,
-    /// The beam radiance estimate (Jarosz, Zwicker & Jensen 2008) for heterogeneous media:
-    /// every photon whose sphere an eye ray crosses, weighted by the exact eye
-    /// transmittance over its chord; no `stepsize` and no k-NN query per sample.
-    Beam,
-    /// Photon planes with a 1-D blur (Bitterli & Jarosz 2017, "Beyond points and beams"):
-    /// each flight of a photon path swept along the direction sampled at its end, met by
-    /// the eye ray at a point — both free flights integrated, no density estimate. In a
-    /// heterogeneous medium the plane ends at the flight's delta-tracked interaction and,
-    /// along its second direction, where the exact optical depth passes one sampled
-    /// `τ* ~ Exp(1)`: unbiased transmittance both ways. The blur half-width starts at
-    /// `maxdist` and shrinks by `(i + α)/(i + 1)` per iteration (a 1-D kernel).
-    Plane,
-}
-
-/// Where the progressive estimate's first radius comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum InitialRadius {
-    /// `maxdist`.
-    Maxdist,
-    /// The median distance from a photon of the first map to its `nused`-th neighbour
-    /// (at most `maxdist`): the radius the point estimate would typically use.
-    Nused,
-}
-
 /// How the reference path tracer (`method = "reference"`) samples its paths. Both are
 /// unbiased; they differ in noise per CPU-second.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -171,34 +113,6 @@ pub enum Tracker {
     /// after the first vertex, and each pixel's share of the samples set by a pilot. The
     /// default: 1.5–1.9× as efficient as `delta` on the thesis's frames (issue #47).
     Weighted,
-}
-
-/// How the kernel radius of the progressive and beam estimators varies in space. Each rule
-/// sets the first iteration's radii; every later iteration scales them all by the same
-/// factor (`alpha`), which keeps each rule consistent.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum RadiusRule {
-    /// Each estimator's rule from before the rule was a setting: `global` for progressive
-    /// points, `nearest` for beams. The default.
-    #[default]
-    Auto,
-    /// One radius everywhere: the median `nused`-th-neighbour distance of the first map (or
-    /// `maxdist`, as `initial_radius` says), as in Knaus & Zwicker's probabilistic PPM.
-    Global,
-    /// Each photon's own distance to its `nused`-th neighbour (at most `maxdist`): radii
-    /// follow the photon density, small where photons crowd and wide where they are
-    /// sparse (the per-beam radii of progressive photon beams, Jarosz et al. 2011).
-    Nearest,
-    /// The radius that balances a 3-D kernel's squared bias against its variance (the
-    /// asymptotic-MSE rule behind adaptive progressive photon mapping, Kaplanyan &
-    /// Dachsbacher 2013): `r ∝ (ρ·κ⁴)^(−1/7)` for photon density `ρ` and a fluence that
-    /// curves on the scale `1/κ`. In a scattering medium the fluence varies over the
-    /// diffusion length, so `κ ∝ σt`, and with `ρ ∝ 1/r_k³` from the `nused`-th
-    /// neighbour this is `r ∝ r_k^(3/7)·σt^(−4/7)`, scaled so that its median is the
-    /// median `r_k` (at most `maxdist`): smaller than `Nearest` in dense tissue, where
-    /// the fluence curves fast, wider in thin tissue.
-    Balanced,
 }
 
 /// Which eye rays the iterations of a progressive, beam or plane render shade.
@@ -389,7 +303,7 @@ impl IntegratorParams {
     /// progressive or the beam estimator. Only such a render depends on `alpha`,
     /// `iterations` and `target_rmse`, and only it records an error per iteration.
     pub fn iterates(&self) -> bool {
-        self.method == Method::Photon && self.multiple && self.estimator != MsEstimator::Points
+        self.method == Method::Photon && self.multiple && self.estimator.iterates()
     }
 
     /// The `[integrator]` keys a photon-mapping render with these settings never reads:
@@ -403,15 +317,6 @@ impl IntegratorParams {
         }
         // The path tracer's settings: a photon render never runs it.
         let mut keys = vec!["tracker", "reference_spp"];
-        // The keys only an iterating estimator reads.
-        const ITERATION: [&str; 6] = [
-            "alpha",
-            "iterations",
-            "photons_per_iteration",
-            "time_budget",
-            "radius",
-            "eye_rays",
-        ];
         if !self.multiple {
             keys.extend([
                 "volume_photons",
@@ -425,31 +330,10 @@ impl IntegratorParams {
                 "initial_radius",
                 "target_rmse",
             ]);
-            keys.extend(ITERATION);
+            keys.extend(ITERATION_KEYS);
             return keys;
         }
-        let photons_per_iteration = self.photons_per_iteration > 0;
-        let radius_from_maxdist = self.initial_radius == InitialRadius::Maxdist;
-        match self.estimator {
-            MsEstimator::Points => {
-                keys.extend(ITERATION);
-                keys.push("initial_radius");
-            }
-            MsEstimator::Progressive | MsEstimator::Beam => {
-                if photons_per_iteration {
-                    keys.push("volume_photons");
-                }
-                if radius_from_maxdist {
-                    keys.extend(["nused", "radius"]);
-                }
-            }
-            MsEstimator::Plane => {
-                keys.extend(["nused", "initial_radius", "radius", "estimate"]);
-                if photons_per_iteration {
-                    keys.push("volume_photons");
-                }
-            }
-        }
+        keys.extend(self.estimator.ignored_keys(self));
         keys
     }
 
@@ -485,25 +369,6 @@ impl IntegratorParams {
         s
     }
 
-    /// What the beam estimate cannot combine with.
-    fn validate_beam(&self) -> Result<()> {
-        if matches!(self.estimate, Estimate::Albedo | Estimate::Thesis) {
-            return Err(Error::parameter(
-                "estimate",
-                format!("{:?}", self.estimate).to_lowercase(),
-                "`masked` or `fluence` with estimator = \"beam\" (the beam estimate integrates σs·T exactly along each chord, which needs the fluence form)",
-            ));
-        }
-        if self.ms_cache > 0 {
-            return Err(Error::parameter(
-                "ms_cache",
-                self.ms_cache,
-                "0 with estimator = \"beam\" (the beam estimate has no per-sample gathers to cache)",
-            ));
-        }
-        Ok(())
-    }
-
     /// Validates ranges; errors name the key (without the `integrator.` prefix).
     pub fn validate(&self) -> Result<()> {
         self.validate_photons()?;
@@ -534,16 +399,6 @@ impl IntegratorParams {
                 "stored_photons",
                 self.stored_photons,
                 "at most 100 000 000 photons (0: off)",
-            ));
-        }
-        if self.stored_photons > 0 && self.estimator != MsEstimator::Points {
-            return Err(Error::parameter(
-                "stored_photons",
-                self.stored_photons,
-                format!(
-                    "0 with estimator = \"{}\" (a stored-photon target fills the point estimate's one map; the iterating estimators set each map by `photons_per_iteration`)",
-                    format!("{:?}", self.estimator).to_lowercase()
-                ),
             ));
         }
         if self.multiple && self.method == Method::Photon && self.volume_photons == 0 {
@@ -639,37 +494,38 @@ impl IntegratorParams {
         }
         check_range("time_budget", self.time_budget as f64, 0.0, 1e7)?;
         check_range("target_rmse", self.target_rmse as f64, 0.0, 1e9)?;
-        if self.target_rmse > 0.0 && self.estimator == MsEstimator::Points {
-            return Err(Error::parameter(
-                "target_rmse",
-                self.target_rmse,
-                "0 with estimator = \"points\" (only the progressive and beam estimators iterate towards a target)",
-            ));
-        }
-        match self.estimator {
-            MsEstimator::Beam => self.validate_beam(),
-            MsEstimator::Plane => self.validate_plane(),
-            MsEstimator::Points | MsEstimator::Progressive => Ok(()),
-        }
+        self.estimator.check(self)
     }
+}
 
-    /// What photon planes cannot combine with.
-    fn validate_plane(&self) -> Result<()> {
-        if self.free_path != FreePath::Delta {
-            return Err(Error::parameter(
-                "free_path",
-                format!("{:?}", self.free_path).to_lowercase(),
-                "`delta` with estimator = \"plane\" (a plane ends at its flight's sampled interaction, which stands in for the transmittance only when the free path is sampled exactly)",
-            ));
-        }
-        if self.ms_cache > 0 {
-            return Err(Error::parameter(
-                "ms_cache",
-                self.ms_cache,
-                "0 with estimator = \"plane\" (photon planes have no per-sample gathers to cache)",
-            ));
-        }
-        Ok(())
+/// What the estimator's answers ([`MsEstimator`]) read of the settings.
+impl EstimatorSettings for IntegratorParams {
+    fn initial_radius(&self) -> InitialRadius {
+        self.initial_radius
+    }
+    fn radius_rule(&self) -> RadiusRule {
+        self.radius
+    }
+    fn maxdist(&self) -> f32 {
+        self.maxdist
+    }
+    fn photons_per_iteration(&self) -> u64 {
+        self.photons_per_iteration
+    }
+    fn stored_photons(&self) -> u64 {
+        self.stored_photons
+    }
+    fn target_rmse(&self) -> f32 {
+        self.target_rmse
+    }
+    fn estimate(&self) -> Estimate {
+        self.estimate
+    }
+    fn ms_cache(&self) -> u32 {
+        self.ms_cache
+    }
+    fn free_path(&self) -> FreePath {
+        self.free_path
     }
 }
 

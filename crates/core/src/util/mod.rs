@@ -7,7 +7,7 @@ mod input;
 mod memory;
 mod pfm;
 
-pub use checksum::{cache_dir, sha256_bytes, sha256_cached, sha256_content, sha256_file};
+pub use checksum::{sha256_bytes, sha256_cached, sha256_content, sha256_file};
 pub use fsutil::{hostname, is_stale_temp, temp_sibling, write_atomic, write_atomic_with};
 pub(crate) use input::file_kind;
 pub use input::{

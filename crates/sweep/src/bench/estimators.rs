@@ -472,7 +472,7 @@ mod tests {
         assert_ne!(image_of(&rows[0]), image_of(&rows[1]), "10× photons");
         for (c, d) in CONFIGS.iter().zip(&details) {
             assert!(d.multiple_mean_ratio > 0.0, "{}: {d:?}", d.setting);
-            let iterates = c.estimator != MsEstimator::Points;
+            let iterates = c.estimator.iterates();
             assert_eq!(
                 d.curve.len(),
                 if iterates { c.iterations as usize } else { 0 }

@@ -8,7 +8,7 @@ use std::collections::{HashMap, HashSet};
 
 use anyhow::Result;
 use volphot::{
-    EyeProbe, Method, MsEstimator, SceneParams, SearchPath, ShadowEstimator, probe_eye_rays,
+    EyeProbe, Method, PassCost, SceneParams, SearchPath, ShadowEstimator, probe_eye_rays,
 };
 
 use crate::plan::{CellSpec, Experiment, ReferenceMethod, reference_key, reference_params};
@@ -124,27 +124,24 @@ pub(crate) fn estimate_cost(p: &SceneParams, probe: Option<EyeProbe>) -> CellCos
     };
     let tracing = i.volume_photons as f64 * PHOTON;
     let record = pixels * RECORD;
-    match i.estimator {
-        MsEstimator::Points => CellCost {
+    // Progressive, beam and plane renders march alone: single scattering in the first
+    // pass, then one multiple-scattering pass per photon set.
+    let Some(pass_cost) = i.estimator.pass_cost() else {
+        return CellCost {
             march: single,
             own: multiple + tracing + record,
-        },
-        // Progressive, beam and plane renders march alone: single scattering in the first
-        // pass, then one multiple-scattering pass per photon set (a plane pass priced as
-        // a beam pass until a pilot measures it).
-        MsEstimator::Progressive | MsEstimator::Beam | MsEstimator::Plane => {
-            let pass = match (i.estimator, i.multiple) {
-                (_, false) => 0.0,
-                (MsEstimator::Progressive, true) => {
-                    multiple * PROGRESSIVE_GATHER + PROGRESSIVE_MARCH * march_length * eye_rays
-                }
-                (_, true) => BEAM_PASS * march_length * eye_rays,
-            };
-            CellCost {
-                march: 0.0,
-                own: single + i.iterations.max(1) as f64 * (pass + tracing) + record,
-            }
+        };
+    };
+    let pass = match (pass_cost, i.multiple) {
+        (_, false) => 0.0,
+        (PassCost::Gathers, true) => {
+            multiple * PROGRESSIVE_GATHER + PROGRESSIVE_MARCH * march_length * eye_rays
         }
+        (PassCost::Traversal, true) => BEAM_PASS * march_length * eye_rays,
+    };
+    CellCost {
+        march: 0.0,
+        own: single + i.iterations.max(1) as f64 * (pass + tracing) + record,
     }
 }
 
@@ -496,6 +493,7 @@ fn pilot_sentence(p: &Pilots, modelled: usize, probes: &Probes) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use volphot::MsEstimator;
 
     fn scene() -> SceneParams {
         let mut p: SceneParams = toml::from_str(volphot::test_util::SMALL_SCENE).unwrap();

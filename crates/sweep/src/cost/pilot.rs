@@ -35,8 +35,8 @@ use std::time::Instant;
 
 use anyhow::Result;
 use volphot::{
-    Control, InitialRadius, IntegratorParams, MsEstimator, ProgressiveStats, SceneParams,
-    SearchPath, error_probe_pixels, next_radius,
+    Control, InitialRadius, IntegratorParams, ProgressiveStats, SceneParams, SearchPath,
+    error_probe_pixels, next_radius,
 };
 
 use crate::plan::CellSpec;
@@ -142,7 +142,7 @@ fn last_radius_pilot(i: &IntegratorParams, radius: f32) -> IntegratorParams {
 /// Whether a progressive pilot of `i` is also rendered at the last iteration's radius: the
 /// point estimate's ball shrinks past the second iteration.
 fn pilots_last_radius(i: &IntegratorParams) -> bool {
-    i.estimator == MsEstimator::Progressive && i.multiple && i.iterations > PILOT_ITERATIONS
+    i.estimator.pilots_last_radius() && i.multiple && i.iterations > PILOT_ITERATIONS
 }
 
 /// The seconds of each later pass of a progressive or beam render, at the pilot's size:
@@ -323,6 +323,7 @@ impl Pilots {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use volphot::MsEstimator;
 
     #[test]
     fn the_pilot_keeps_the_aspect_and_never_exceeds_the_image() {

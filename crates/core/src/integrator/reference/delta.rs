@@ -9,6 +9,7 @@ use glam::Vec3;
 
 use super::{MAX_VERTICES, PathSample};
 use crate::math::{Ray, Rng};
+use crate::medium::{ShadowBy, ShadowSegment};
 use crate::scene::Scene;
 
 /// Traces one path from the camera.
@@ -46,16 +47,12 @@ pub(super) fn trace_path(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> PathSamp
                 let Some(inc) = light.sample_incident(x, rng) else {
                     continue;
                 };
-                let shadow = Ray {
+                let segment = ShadowSegment {
                     origin: x,
                     direction: inc.to_light,
+                    distance: inc.distance,
                 };
-                let tr = match medium.clip(&shadow) {
-                    Some((s0, s1)) => {
-                        medium.transmittance_ratio_tracking(&shadow, s0, s1.min(inc.distance), rng)
-                    }
-                    None => 1.0,
-                };
+                let tr = medium.shadow_transmittance(&segment, ShadowBy::Ratio(rng));
                 if tr > 0.0 {
                     direct +=
                         inc.radiance * (tr * medium.phase().eval(-inc.to_light, -ray.direction));

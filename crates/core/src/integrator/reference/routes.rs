@@ -18,7 +18,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::math::{Aabb, Ray, scrambled_sobol};
+use crate::math::{Aabb, scrambled_sobol};
+use crate::medium::{DepthCap, ShadowSegment};
 use crate::scene::Scene;
 
 /// A faster reference's candidate, raced by `sweep bench --reference`.
@@ -106,22 +107,12 @@ impl LightVisibility {
                     .map(move |light| match light.incident(centre) {
                         None => 0.0,
                         Some(inc) => {
-                            let ray = Ray {
+                            let segment = ShadowSegment {
                                 origin: centre,
                                 direction: inc.to_light,
+                                distance: inc.distance,
                             };
-                            match medium.clip(&ray) {
-                                Some((t0, t1)) => {
-                                    let tau = medium.optical_depth_exact(
-                                        &ray,
-                                        t0,
-                                        t1.min(inc.distance),
-                                        30.0,
-                                    );
-                                    (-tau).exp()
-                                }
-                                None => 1.0,
-                            }
+                            (-medium.shadow_depth(&segment, DepthCap::Exact(30.0))).exp()
                         }
                     })
             })

@@ -32,7 +32,7 @@ use super::mis;
 use super::routes::LightVisibility;
 use super::{MAX_VERTICES, PathSample};
 use crate::math::{Ray, Rng};
-use crate::medium::Medium;
+use crate::medium::{Medium, ShadowBy, ShadowSegment};
 use crate::scene::{Light, Scene};
 
 /// Throughput (largest channel) below which a path plays Russian roulette. Over 0.2, 0.3
@@ -373,20 +373,17 @@ fn transmittance(
     rng: &mut Rng,
     exact: bool,
 ) -> f32 {
-    let shadow = Ray {
+    let segment = ShadowSegment {
         origin: x,
         direction: to_light,
+        distance,
     };
-    match medium.clip(&shadow) {
-        Some((s0, s1)) if exact => {
-            let tau = medium.optical_depth_exact(&shadow, s0, s1.min(distance), EXACT_TAU_MAX);
-            if tau >= EXACT_TAU_MAX {
-                0.0
-            } else {
-                (-tau).exp()
-            }
+    let by = if exact {
+        ShadowBy::Exact {
+            tau_max: EXACT_TAU_MAX,
         }
-        Some((s0, s1)) => medium.transmittance_ratio_tracking(&shadow, s0, s1.min(distance), rng),
-        None => 1.0,
-    }
+    } else {
+        ShadowBy::Ratio(rng)
+    };
+    medium.shadow_transmittance(&segment, by)
 }
