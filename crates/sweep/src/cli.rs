@@ -605,28 +605,25 @@ pub(crate) enum Peer {
     Mitsuba,
 }
 
-/// A configuration of `sweep bench`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub(crate) enum BenchConfig {
-    /// The thesis's integrator as v0.1 ran it: shadow rays marched with the step, no caches
-    /// (what the others are compared with).
-    Marched,
-    /// Exact optical depth, filled along each eye ray; every gather (`thin_below = 0`).
-    Exact,
-    /// Exact optical depth at every sample (no interpolation at all).
-    EverySample,
-    /// The default: `exact` with gathers and optical-depth fills spaced out behind the
-    /// front, by eye transmittance (`thin_below = 0.5`).
-    Thinned,
-    /// The default on one thread (the thread scaling).
-    OneThread,
-    /// The transmittance and scattering caches (128 nodes): fast, not exact.
-    Cached,
-    /// The default under cinematic light: the `[three_point]` layout as a soft area key
-    /// light and a sky (`three_point.style = "cinematic"`).
-    Cinematic,
-    /// Single scattering only: the marcher against the path tracer, RMSE² × CPU-s.
-    Efficiency,
+/// A configuration `sweep bench --only` names: the bench's own, with the name and help it
+/// gives (the list lives once, in `bench`; the command line only reads it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct BenchConfig(crate::bench::BenchConfig);
+
+impl ValueEnum for BenchConfig {
+    fn value_variants<'a>() -> &'a [Self] {
+        static ALL: std::sync::LazyLock<Vec<BenchConfig>> = std::sync::LazyLock::new(|| {
+            crate::bench::BenchConfig::ALL
+                .iter()
+                .map(|&c| BenchConfig(c))
+                .collect()
+        });
+        &ALL
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.0.name()).help(self.0.help()))
+    }
 }
 
 /// Parses `--cell-timeout` (seconds, > 0).
@@ -950,7 +947,7 @@ impl BenchArgs {
             quick: self.quick,
             threads: self.threads,
             scene: self.scene.clone(),
-            only: self.only.iter().map(|c| c.config()).collect(),
+            only: self.only.iter().map(|c| c.0).collect(),
             runs: self.runs,
             reference_passes: self.reference_passes,
             python: self.python.clone(),
@@ -991,23 +988,6 @@ fn recorded_bench(json: &Path) -> Option<(Vec<String>, BenchArgs)> {
     {
         Command::Bench(bench) => Some((command, bench)),
         _ => None,
-    }
-}
-
-impl BenchConfig {
-    /// The configuration it names.
-    fn config(self) -> crate::bench::BenchConfig {
-        use crate::bench::BenchConfig as C;
-        match self {
-            BenchConfig::Marched => C::Marched,
-            BenchConfig::Exact => C::Exact,
-            BenchConfig::EverySample => C::EverySample,
-            BenchConfig::Thinned => C::Thinned,
-            BenchConfig::OneThread => C::OneThread,
-            BenchConfig::Cached => C::Cached,
-            BenchConfig::Cinematic => C::Cinematic,
-            BenchConfig::Efficiency => C::Efficiency,
-        }
     }
 }
 

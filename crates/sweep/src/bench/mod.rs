@@ -53,6 +53,62 @@ pub(crate) enum BenchConfig {
     Efficiency,
 }
 
+impl BenchConfig {
+    /// Every configuration, in the order the table lists them.
+    pub(crate) const ALL: [BenchConfig; 8] = [
+        BenchConfig::Marched,
+        BenchConfig::Exact,
+        BenchConfig::EverySample,
+        BenchConfig::Thinned,
+        BenchConfig::OneThread,
+        BenchConfig::Cached,
+        BenchConfig::Cinematic,
+        BenchConfig::Efficiency,
+    ];
+
+    /// The name `--only` and the table use.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            BenchConfig::Marched => "marched",
+            BenchConfig::Exact => "exact",
+            BenchConfig::EverySample => "every-sample",
+            BenchConfig::Thinned => "thinned",
+            BenchConfig::OneThread => "one-thread",
+            BenchConfig::Cached => "cached",
+            BenchConfig::Cinematic => "cinematic",
+            BenchConfig::Efficiency => "efficiency",
+        }
+    }
+
+    /// What it measures, as `sweep bench --help` says.
+    pub(crate) fn help(self) -> &'static str {
+        match self {
+            BenchConfig::Marched => {
+                "The thesis's integrator as v0.1 ran it: shadow rays marched with the step, no caches (what the others are compared with)"
+            }
+            BenchConfig::Exact => {
+                "Exact optical depth, filled along each eye ray; every gather (`thin_below = 0`)"
+            }
+            BenchConfig::EverySample => {
+                "Exact optical depth at every sample (no interpolation at all)"
+            }
+            BenchConfig::Thinned => {
+                "The default: `exact` with gathers and optical-depth fills spaced out behind the front, by eye transmittance (`thin_below = 0.5`)"
+            }
+            BenchConfig::OneThread => "The default on one thread (the thread scaling)",
+            BenchConfig::Cached => {
+                "The transmittance and scattering caches (128 nodes): fast, not exact"
+            }
+            BenchConfig::Cinematic => {
+                "The default under cinematic light: the `[three_point]` layout as a soft area key light and a sky (`three_point.style = \"cinematic\"`)"
+            }
+            BenchConfig::Efficiency => {
+                "Single scattering only: the marcher against the path tracer, RMSE² × CPU-s"
+            }
+        }
+    }
+}
+
 /// What `sweep bench` compares.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum BenchMode {
@@ -111,18 +167,6 @@ pub(crate) struct BenchOptions {
     /// The style of the scene's `[three_point]` lights (the scene's own when `None`).
     pub(crate) lighting: Option<volphot::LightingStyle>,
 }
-
-/// Every configuration, in the order they run.
-const ALL: [BenchConfig; 8] = [
-    BenchConfig::Marched,
-    BenchConfig::Exact,
-    BenchConfig::EverySample,
-    BenchConfig::Thinned,
-    BenchConfig::OneThread,
-    BenchConfig::Cached,
-    BenchConfig::Cinematic,
-    BenchConfig::Efficiency,
-];
 
 /// The times of one render of a configuration.
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -321,19 +365,6 @@ fn configure(config: BenchConfig, base: &IntegratorParams) -> IntegratorParams {
     s
 }
 
-fn config_name(config: BenchConfig) -> &'static str {
-    match config {
-        BenchConfig::Marched => "marched",
-        BenchConfig::Exact => "exact",
-        BenchConfig::EverySample => "every-sample",
-        BenchConfig::Thinned => "thinned",
-        BenchConfig::OneThread => "one-thread",
-        BenchConfig::Cached => "cached",
-        BenchConfig::Cinematic => "cinematic",
-        BenchConfig::Efficiency => "efficiency",
-    }
-}
-
 /// Runs the benchmark.
 pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     if args.mode == BenchMode::Reference {
@@ -366,7 +397,7 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     let single_pool = crate::render::thread_pool(Some(1))?;
     let base = scene_path.parent().unwrap_or(Path::new("."));
     let scene = pool.install(|| Scene::from_params(&params, base, &SearchPath::from_env()))?;
-    let configs: Vec<BenchConfig> = ALL
+    let configs: Vec<BenchConfig> = BenchConfig::ALL
         .into_iter()
         .filter(|c| args.only.is_empty() || args.only.contains(c))
         .collect();
@@ -388,7 +419,7 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
         } else {
             &pool
         };
-        let m = pool.install(|| measure(config_name(config), &s, &scene_path, args.runs))?;
+        let m = pool.install(|| measure(config.name(), &s, &scene_path, args.runs))?;
         report.measurements.push(m);
     }
     compare_with_marched(&mut report.measurements);
