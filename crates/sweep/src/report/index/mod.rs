@@ -351,7 +351,16 @@ pub(crate) fn write_index(root: &Path) -> Result<Index> {
         }
     );
     if let Some(answer) = &paper.answer {
-        let _ = write!(body, "<p><b>The answer:</b> {}</p>", escape::html(answer));
+        let page = if paper_page.is_some() {
+            "./REPRODUCTION.html"
+        } else {
+            "./REPRODUCTION.md"
+        };
+        let _ = write!(
+            body,
+            "<p><b>The answer:</b> {}</p>",
+            paper::answer_html(answer, page)
+        );
     }
     let ordered = ordered(&studies, &paper);
     let _ = write!(body, "<div class=\"grid\">");

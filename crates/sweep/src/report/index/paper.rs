@@ -191,6 +191,51 @@ pub(crate) fn write_page(root: &Path, markdown: Option<&str>) -> Result<Option<P
     Ok(Some(path))
 }
 
+/// The paper's answer paragraph as HTML: its text escaped, and each of its links to a
+/// section of the paper (`[words](#section)`) a link to the paper's `page` (whose headings
+/// carry no ids: the sanitiser writes none from the text); any other Markdown link keeps
+/// its words only; the claims' comments are dropped.
+pub(crate) fn answer_html(answer: &str, page: &str) -> String {
+    // The claims' hidden comments are not text.
+    let mut shown = String::new();
+    let mut text = answer;
+    while let Some(open) = text.find("<!--") {
+        shown.push_str(&text[..open]);
+        text = text[open..]
+            .find("-->")
+            .map_or("", |close| &text[open + close + 3..]);
+    }
+    shown.push_str(text);
+    let mut out = String::new();
+    let mut rest = shown.as_str();
+    while let Some(open) = rest.find('[') {
+        let Some((words, target, after)) = markdown_link(&rest[open..]) else {
+            out += &escape::html(&rest[..=open]);
+            rest = &rest[open + 1..];
+            continue;
+        };
+        out += &escape::html(&rest[..open]);
+        if target.starts_with('#') {
+            out += &format!(
+                "<a href=\"{}\">{}</a>",
+                escape::html(page),
+                escape::html(words)
+            );
+        } else {
+            out += &escape::html(words);
+        }
+        rest = after;
+    }
+    out + &escape::html(rest)
+}
+
+/// `[words](target)` at the start of `text`: the words, the target and the text after it.
+fn markdown_link(text: &str) -> Option<(&str, &str, &str)> {
+    let close = text.find("](")?;
+    let end = close + 2 + text[close + 2..].find(')')?;
+    Some((&text[1..close], &text[close + 2..end], &text[end + 1..]))
+}
+
 const PAPER_STYLE: &str = "body{font-family:serif;max-width:860px;margin:2em auto;padding:0 1em;color:#222;line-height:1.45}\
 table{border-collapse:collapse;font-size:0.9em;margin:1em 0;display:block;overflow-x:auto}td,th{border:1px solid #ccc;padding:2px 6px}\
 th{background:#eee}img{max-width:100%}code{background:#f3f3f3;padding:0 3px;font-size:0.9em}";
@@ -198,6 +243,18 @@ th{background:#eee}img{max-width:100%}code{background:#f3f3f3;padding:0 3px;font
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_answer_links_to_the_paper_instead_of_showing_markdown() {
+        let html = answer_html(
+            "So it <b>stays</b> ([the answer under cinematic light](#the-answer-under-cinematic-light)) and [x](https://example.org/)<!-- = value(s: c) -->.",
+            "./REPRODUCTION.html",
+        );
+        assert_eq!(
+            html,
+            "So it &lt;b&gt;stays&lt;/b&gt; (<a href=\"./REPRODUCTION.html\">the answer under cinematic light</a>) and x."
+        );
+    }
 
     const PAPER: &str = "# P\n\n## The answer (§1.1)\n\nSo the measurements support the thesis's cautious answer:\nGI helps the engine.\n\n## Verdicts\n\n| claim | the thesis says | verdict |\n|---|---|---|\n| C1 | balls | **reproduced in trend**: they fade |\n| C8 | per dataset | **partly**: x |\n\n## What was run\n\n| study | folder | grid | cells |\n|---|---|---|---|\n| disco balls (C1–C3, C5) | `artifacts-paper/` | … | 648<!-- = count(a: b) --> |\n| single against multiple (C8, C9, §1.1) | `single_vs_multiple-paper/` | … | 32 |\n| tuned settings | `tune_foot/`, `tune_thesis/` | … | 1 |\n";
 
