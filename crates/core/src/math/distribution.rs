@@ -74,18 +74,14 @@ impl PiecewiseConstant1D {
         self.cdf.last().copied().unwrap_or(0.0)
     }
 
-    /// The running sums (entry `i` holds the weights of `0..=i`).
-    pub fn running_sums(&self) -> &[f64] {
-        &self.cdf
-    }
-
-    fn below(&self, i: usize) -> f64 {
-        if i == 0 { 0.0 } else { self.cdf[i - 1] }
+    /// The running sums as the view every search and inversion goes through.
+    fn view(&self) -> PiecewiseConstantView<'_> {
+        PiecewiseConstantView { cdf: &self.cdf }
     }
 
     /// Entry `i`'s weight.
     pub fn weight(&self, i: usize) -> f64 {
-        self.cdf[i] - self.below(i)
+        self.view().weight(i)
     }
 
     /// The probability of entry `i` (0 for a distribution of no weight).
@@ -106,21 +102,12 @@ impl PiecewiseConstant1D {
         if !(total > 0.0 && total.is_finite()) {
             return None;
         }
-        Some(self.search(unit_interval(u) * total))
-    }
-
-    fn search(&self, target: f64) -> (usize, f64) {
-        PiecewiseConstantView { cdf: &self.cdf }.search(target)
+        Some(self.view().search(unit_interval(u) * total))
     }
 
     /// The `u` that [`Self::sample`] maps to entry `i` at position `f` inside it.
     pub fn invert(&self, i: usize, f: f64) -> f64 {
-        let total = self.total();
-        if total > 0.0 {
-            (self.below(i) + f * self.weight(i)) / total
-        } else {
-            0.0
-        }
+        self.view().invert(i, f)
     }
 }
 
@@ -201,8 +188,8 @@ impl PiecewiseConstant2D {
     }
 }
 
-/// A borrowed run of running sums searched as [`PiecewiseConstant1D`] does (a row of the
-/// 2-D distribution, without copying it).
+/// A borrowed run of running sums: what [`PiecewiseConstant1D`] and each row of the 2-D
+/// distribution search and invert (a row without copying it).
 struct PiecewiseConstantView<'a> {
     cdf: &'a [f64],
 }
@@ -228,18 +215,18 @@ impl PiecewiseConstantView<'_> {
     /// The first entry whose running sum lies strictly above `target` (so an entry of
     /// weight zero is never chosen), and where `target` falls inside it, in `[0, 1)`.
     fn search(&self, target: f64) -> (usize, f64) {
-        let below = |i: usize| self.below(i);
         let cdf = self.cdf;
         let mut i = cdf.partition_point(|&c| c <= target);
         if i == cdf.len() {
+            // Only when rounding put `target` at the total: take the last entry with weight.
             i = (0..cdf.len())
                 .rev()
-                .find(|&j| cdf[j] > below(j))
+                .find(|&j| self.weight(j) > 0.0)
                 .unwrap_or(cdf.len() - 1);
         }
-        let width = cdf[i] - below(i);
+        let width = self.weight(i);
         let f = if width > 0.0 {
-            ((target - below(i)) / width).clamp(0.0, ONE_BELOW)
+            ((target - self.below(i)) / width).clamp(0.0, ONE_BELOW)
         } else {
             0.5
         };
