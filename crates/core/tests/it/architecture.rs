@@ -10,7 +10,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use check::{
-    Graph, Module, against_layers, circles, code, crate_graph, graph_of, map_mismatches, section,
+    Graph, Module, against_layers, assert_no_circle, assert_stage_order, circles, code, graph_of,
+    map_mismatches, section, source_graph,
 };
 
 /// The core's stages, lowest first: a stage's files may import only the stages before it
@@ -28,33 +29,17 @@ const CORE_LAYERS: [&str; 7] = [
 ];
 
 fn core_graph() -> Graph {
-    let graph = crate_graph(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"));
-    assert!(
-        graph.files.len() > 50,
-        "{} modules found",
-        graph.files.len()
-    );
-    graph
+    source_graph(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"))
 }
 
 #[test]
 fn the_core_has_no_import_circle() {
-    let found = circles(&core_graph());
-    assert!(
-        found.is_empty(),
-        "imports run in a circle; move what the files share into a leaf of their own:\n{}",
-        found.join("\n")
-    );
+    assert_no_circle(&core_graph());
 }
 
 #[test]
 fn each_core_stage_imports_only_the_stages_below_it() {
-    let found = against_layers(&core_graph(), &CORE_LAYERS);
-    assert!(
-        found.is_empty(),
-        "imports against the stage order {CORE_LAYERS:?}:\n{}",
-        found.join("\n")
-    );
+    assert_stage_order(&core_graph(), &CORE_LAYERS);
 }
 
 /// A crate of `files` (module path as `a/b`, the root as ``) with their code.

@@ -10,7 +10,9 @@ mod check;
 
 use std::path::{Path, PathBuf};
 
-use check::{Graph, against_layers, circles, code, crate_graph, map_mismatches, section};
+use check::{
+    Graph, assert_no_circle, assert_stage_order, code, map_mismatches, section, source_graph,
+};
 
 /// The sweep's stages, lowest first: a stage's files may import only the stages before it.
 /// The store knows no stage; the metrics (`analyse`) are what a plan may name and what a
@@ -23,33 +25,17 @@ fn workspace() -> PathBuf {
 }
 
 fn sweep_graph() -> Graph {
-    let graph = crate_graph(&workspace().join("crates/sweep/src"));
-    assert!(
-        graph.files.len() > 50,
-        "{} modules found",
-        graph.files.len()
-    );
-    graph
+    source_graph(&workspace().join("crates/sweep/src"))
 }
 
 #[test]
 fn the_sweep_has_no_import_circle() {
-    let found = circles(&sweep_graph());
-    assert!(
-        found.is_empty(),
-        "imports run in a circle; move what the files share into a leaf of their own:\n{}",
-        found.join("\n")
-    );
+    assert_no_circle(&sweep_graph());
 }
 
 #[test]
 fn each_sweep_stage_imports_only_the_stages_below_it() {
-    let found = against_layers(&sweep_graph(), &SWEEP_LAYERS);
-    assert!(
-        found.is_empty(),
-        "imports against the stage order {SWEEP_LAYERS:?}:\n{}",
-        found.join("\n")
-    );
+    assert_stage_order(&sweep_graph(), &SWEEP_LAYERS);
 }
 
 /// CONTRIBUTING.md's map of the binary names every module of the tree, and nothing that

@@ -271,8 +271,9 @@ fn definitions(text: &str) -> BTreeSet<String> {
     names
 }
 
-/// Each `use` declaration of `text`: whether it is public (a re-export) and its tree.
-fn use_declarations(text: &str) -> Vec<(bool, String)> {
+/// Each `use` declaration of `text`: where it starts (at `use`), where its `;` is, and
+/// whether it is public (a re-export).
+fn use_spans(text: &str) -> Vec<(usize, usize, bool)> {
     let mut out = Vec::new();
     for (start, _) in text.match_indices("use ") {
         let before = &text[..start];
@@ -288,25 +289,24 @@ fn use_declarations(text: &str) -> Vec<(bool, String)> {
         };
         let line_start = before.rfind(['\n', ';', '{', '}']).map_or(0, |i| i + 1);
         let public = before[line_start..].trim_start().starts_with("pub");
-        out.push((public, text[start + 4..start + end].to_string()));
+        out.push((start, start + end, public));
     }
     out
+}
+
+/// Each `use` declaration of `text`: whether it is public (a re-export) and its tree.
+fn use_declarations(text: &str) -> Vec<(bool, String)> {
+    use_spans(text)
+        .into_iter()
+        .map(|(start, end, public)| (public, text[start + 4..end].to_string()))
+        .collect()
 }
 
 /// `text` with its `use` declarations blanked (their paths are read as trees).
 fn without_use_declarations(text: &str) -> String {
     let mut out = text.to_string();
-    for (start, _) in text.match_indices("use ") {
-        if text[..start]
-            .chars()
-            .last()
-            .is_some_and(|c| c.is_alphanumeric() || c == '_' || c == ':')
-        {
-            continue;
-        }
-        if let Some(end) = text[start..].find(';') {
-            out.replace_range(start..start + end, &" ".repeat(end));
-        }
+    for (start, end, _) in use_spans(text) {
+        out.replace_range(start..end, &" ".repeat(end - start));
     }
     out
 }
@@ -681,4 +681,36 @@ pub fn section<'a>(contributing: &'a str, from: &str) -> &'a str {
         .find(|(i, _)| rest[i + 1..].chars().take_while(|&c| c == '#').count() <= level)
         .map_or(rest.len(), |(i, _)| i);
     &contributing[start..start + from.len() + end]
+}
+
+/// The graph of the crate under `src`, checked to have found the crate (more than 50
+/// modules).
+pub fn source_graph(src: &Path) -> Graph {
+    let graph = crate_graph(src);
+    assert!(
+        graph.files.len() > 50,
+        "{} modules found",
+        graph.files.len()
+    );
+    graph
+}
+
+/// Fails, naming each circle and its edges, when `graph` has one.
+pub fn assert_no_circle(graph: &Graph) {
+    let found = circles(graph);
+    assert!(
+        found.is_empty(),
+        "imports run in a circle; move what the files share into a leaf of their own:\n{}",
+        found.join("\n")
+    );
+}
+
+/// Fails, naming each import, when `graph` imports against the stage order `layers`.
+pub fn assert_stage_order(graph: &Graph, layers: &[&str]) {
+    let found = against_layers(graph, layers);
+    assert!(
+        found.is_empty(),
+        "imports against the stage order {layers:?}:\n{}",
+        found.join("\n")
+    );
 }
