@@ -145,33 +145,22 @@ fn choose_pair(
 /// cell's coordinates and whether its data are there), for [`super::reopen_page`]: a clone
 /// holds the page but not the cells it was built from.
 pub(super) fn reopen(manifest: &mut serde_json::Value, pair: &PairSpec) -> anyhow::Result<()> {
-    let axes: Vec<(String, Vec<serde_json::Value>)> = manifest["axes"]
+    let no_values = Vec::new();
+    let axes: Vec<(&str, &Vec<serde_json::Value>)> = manifest["axes"]
         .as_array()
-        .map(|axes| {
-            axes.iter()
-                .map(|a| {
-                    let values = a["values"].as_array().map_or(Vec::new(), |v| {
-                        // A value as the plan held it: its text read back as JSON where it
-                        // is a number, a flag or a list, else the text.
-                        v.iter()
-                            .map(|t| {
-                                let text = t.as_str().unwrap_or_default();
-                                serde_json::from_str(text)
-                                    .unwrap_or_else(|_| serde_json::Value::String(text.into()))
-                            })
-                            .collect()
-                    });
-                    (a["key"].as_str().unwrap_or_default().to_string(), values)
-                })
-                .collect()
+        .unwrap_or(&no_values)
+        .iter()
+        .map(|a| {
+            let values = a["values"].as_array().unwrap_or(&no_values);
+            (a["key"].as_str().unwrap_or_default(), values)
         })
-        .unwrap_or_default();
-    let cells = manifest["cells"].as_array().cloned().unwrap_or_default();
-    let keys: Vec<String> = axes.iter().map(|(k, _)| k.clone()).collect();
+        .collect();
+    let cells = manifest["cells"].as_array().unwrap_or(&no_values);
+    let keys: Vec<String> = axes.iter().map(|(k, _)| k.to_string()).collect();
     let value = |cell: usize, key: &str| {
-        let axis = axes.iter().position(|(k, _)| k == key)?;
+        let axis = axes.iter().position(|(k, _)| *k == key)?;
         let at = cells[cell]["coords"][axis].as_u64()? as usize;
-        axes[axis].1.get(at).cloned()
+        axes[axis].1.get(at).map(plan_value)
     };
     let done = (0..cells.len()).filter(|&i| cells[i].get("data").is_some());
     let start = choose_pair(&keys, done, value, pair).ok_or_else(|| {
@@ -183,6 +172,13 @@ pub(super) fn reopen(manifest: &mut serde_json::Value, pair: &PairSpec) -> anyho
     })?;
     manifest["start"] = serde_json::json!(start);
     Ok(())
+}
+
+/// An axis value as the plan held it, from the text a manifest shows: read back as JSON
+/// where it is a number, a flag or a list, else the text.
+fn plan_value(shown: &serde_json::Value) -> serde_json::Value {
+    let text = shown.as_str().unwrap_or_default();
+    serde_json::from_str(text).unwrap_or_else(|_| serde_json::Value::String(text.into()))
 }
 
 impl Manifest {
