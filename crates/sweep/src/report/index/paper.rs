@@ -26,7 +26,8 @@ pub(crate) struct Paper {
     pub(crate) entries: Vec<Entry>,
     /// Each claim's verdict, its first (bold) phrase: `C1` → `reproduced in trend, …`.
     pub(crate) verdicts: Vec<(String, String)>,
-    /// The §1.1 answer's closing sentence (`So the measurements support …`), if any.
+    /// The §1.1 answer's closing paragraph (`So the measurements support …`) as Markdown,
+    /// if any.
     pub(crate) answer: Option<String>,
 }
 
@@ -165,7 +166,7 @@ pub(crate) fn parse(markdown: &str) -> Paper {
         .map(|first| {
             let at = markdown.find(first).unwrap_or(0);
             let paragraph = markdown[at..].split("\n\n").next().unwrap_or(first);
-            plain(&paragraph.split_whitespace().collect::<Vec<_>>().join(" "))
+            paragraph.split_whitespace().collect::<Vec<_>>().join(" ")
         });
     Paper {
         entries,
@@ -191,49 +192,40 @@ pub(crate) fn write_page(root: &Path, markdown: Option<&str>) -> Result<Option<P
     Ok(Some(path))
 }
 
-/// The paper's answer paragraph as HTML: its text escaped, and each of its links to a
-/// section of the paper (`[words](#section)`) a link to the paper's `page` (whose headings
-/// carry no ids: the sanitiser writes none from the text); any other Markdown link keeps
-/// its words only; the claims' comments are dropped.
+/// The paper's answer paragraph as HTML through the pages' one sanitiser
+/// ([`escape::page_events`]: raw HTML as text, the claims' comments dropped), without its
+/// paragraph tags; each link to a section of the paper (`[words](#section)`) becomes a link
+/// to the paper's `page` (whose headings carry no ids), any other link keeps its words.
 pub(crate) fn answer_html(answer: &str, page: &str) -> String {
-    // The claims' hidden comments are not text.
-    let mut shown = String::new();
-    let mut text = answer;
-    while let Some(open) = text.find("<!--") {
-        shown.push_str(&text[..open]);
-        text = text[open..]
-            .find("-->")
-            .map_or("", |close| &text[open + close + 3..]);
-    }
-    shown.push_str(text);
-    let mut out = String::new();
-    let mut rest = shown.as_str();
-    while let Some(open) = rest.find('[') {
-        let Some((words, target, after)) = markdown_link(&rest[open..]) else {
-            out += &escape::html(&rest[..=open]);
-            rest = &rest[open + 1..];
-            continue;
-        };
-        out += &escape::html(&rest[..open]);
-        if target.starts_with('#') {
-            out += &format!(
-                "<a href=\"{}\">{}</a>",
-                escape::html(page),
-                escape::html(words)
-            );
-        } else {
-            out += &escape::html(words);
-        }
-        rest = after;
-    }
-    out + &escape::html(rest)
-}
-
-/// `[words](target)` at the start of `text`: the words, the target and the text after it.
-fn markdown_link(text: &str) -> Option<(&str, &str, &str)> {
-    let close = text.find("](")?;
-    let end = close + 2 + text[close + 2..].find(')')?;
-    Some((&text[1..close], &text[close + 2..end], &text[end + 1..]))
+    use pulldown_cmark::{CowStr, Event, Tag, TagEnd};
+    let mut dropped = Vec::new();
+    let events = escape::page_events(answer)
+        .into_iter()
+        .filter_map(|event| match event {
+            Event::Start(Tag::Paragraph) | Event::End(TagEnd::Paragraph) => None,
+            Event::Start(Tag::Link {
+                link_type,
+                dest_url,
+                title,
+                id,
+            }) => {
+                let section = dest_url.starts_with('#');
+                dropped.push(!section);
+                section.then(|| {
+                    Event::Start(Tag::Link {
+                        link_type,
+                        dest_url: CowStr::from(page.to_string()),
+                        title,
+                        id,
+                    })
+                })
+            }
+            Event::End(TagEnd::Link) => (!dropped.pop().unwrap_or(false)).then_some(event),
+            event => Some(event),
+        });
+    let mut html = String::new();
+    pulldown_cmark::html::push_html(&mut html, events);
+    html
 }
 
 const PAPER_STYLE: &str = "body{font-family:serif;max-width:860px;margin:2em auto;padding:0 1em;color:#222;line-height:1.45}\
