@@ -144,11 +144,7 @@ impl Light {
     /// The one position a delta light shines from (`None` for a light with extent or an
     /// environment, which have none).
     pub fn delta_position(&self) -> Option<Vec3> {
-        match self {
-            Light::Spot(s) => Some(s.position),
-            Light::Point(p) => Some(p.position),
-            Light::Area(_) | Light::Environment(_) => None,
-        }
+        self.is_delta().then(|| self.position())
     }
 
     /// Position of the light (a delta light's; an area light's centre; an environment's
