@@ -455,21 +455,26 @@ fn suns_of_every_size_with_one_irradiance_render_the_same_image() {
     }
 }
 
+/// The error of loading a scene file `name` holding `text` (in a folder of its own); a
+/// scene that loads fails the test.
+fn load_error(name: &str, text: &str) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, text).unwrap();
+    match volphot::Scene::load(&path, &volphot::SearchPath::new(vec![])) {
+        Ok(_) => panic!("{name} loaded: {text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
 /// A sun smaller than 32-bit directions resolve is refused, saying which angle renders
 /// the same; the smallest accepted renders (the test above).
 #[test]
 fn a_sun_below_the_smallest_angle_is_refused_with_the_equivalent() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("tiny-sun.toml");
-    std::fs::write(
-        &path,
+    let err = load_error(
+        "tiny-sun.toml",
         "[volume]\nphantom = { name = \"constant\", resolution = [4, 4, 4] }\n[[lights]]\ntype = \"sky\"\nsun_direction = [0, 0, 1]\nsun_radiance = 1e9\nsun_angle = 0.0001\n",
-    )
-    .unwrap();
-    let err = volphot::Scene::load(&path, &volphot::SearchPath::new(vec![]))
-        .map(|_| ())
-        .unwrap_err()
-        .to_string();
+    );
     assert!(
         err.contains("tiny-sun.toml:7") && err.contains("sun_angle") && err.contains("0.001"),
         "{err}"
@@ -489,13 +494,7 @@ fn a_sky_lit_by_its_sun_alone_renders() {
     .x;
     assert!(lit > 0.01, "{lit}");
     let dark = "[volume]\nphantom = { name = \"constant\", resolution = [4, 4, 4] }\n[[lights]]\ntype = \"sky\"\nzenith = 0\nhorizon = 0\nground = 0\n";
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("dark.toml");
-    std::fs::write(&path, dark).unwrap();
-    let err = volphot::Scene::load(&path, &volphot::SearchPath::new(vec![]))
-        .map(|_| ())
-        .unwrap_err()
-        .to_string();
+    let err = load_error("dark.toml", dark);
     assert!(err.contains("dark.toml") && err.contains("no sun"), "{err}");
 }
 
@@ -517,17 +516,12 @@ fn area_lights_too_small_for_32_bit_floats_are_refused() {
             "radius",
         ),
     ] {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("tiny.toml");
-        std::fs::write(
-            &path,
-            format!("[volume]\nphantom = {{ name = \"constant\", resolution = [4, 4, 4] }}\n[[lights]]\n{light}\n"),
-        )
-        .unwrap();
-        let err = volphot::Scene::load(&path, &volphot::SearchPath::new(vec![]))
-            .map(|_| ())
-            .expect_err(light)
-            .to_string();
+        let err = load_error(
+            "tiny.toml",
+            &format!(
+                "[volume]\nphantom = {{ name = \"constant\", resolution = [4, 4, 4] }}\n[[lights]]\n{light}\n"
+            ),
+        );
         assert!(
             err.contains("tiny.toml")
                 && err.contains(&format!("lights[0].{key}"))
@@ -542,17 +536,10 @@ fn area_lights_too_small_for_32_bit_floats_are_refused() {
 /// refused naming the key.
 #[test]
 fn a_spot_narrower_than_32_bit_cosines_resolve_is_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("narrow.toml");
-    std::fs::write(
-        &path,
+    let err = load_error(
+        "narrow.toml",
         "[volume]\nphantom = { name = \"constant\", resolution = [4, 4, 4] }\n[[lights]]\ntype = \"spot\"\nposition = [0.5, 0.5, 2]\ntarget = [0.5, 0.5, 0.5]\nintensity = 1\ncone_angle = 0.0001\n",
-    )
-    .unwrap();
-    let err = volphot::Scene::load(&path, &volphot::SearchPath::new(vec![]))
-        .map(|_| ())
-        .unwrap_err()
-        .to_string();
+    );
     assert!(
         err.contains("narrow.toml:8") && err.contains("cone_angle") && err.contains("0.5"),
         "{err}"
