@@ -30,7 +30,7 @@ done
 # Each study's wall time goes to reports/bench/reproduce<suffix>.json (the documents cite it).
 times=()
 start_all=$(date +%s.%N)
-for experiment in quickstart artifacts nused_seeds free_path transparent single_vs_multiple albedo stepsize cost consistency_seeds consistency alpha presets; do
+for experiment in quickstart artifacts nused_seeds free_path transparent single_vs_multiple cinematic albedo stepsize cost consistency_seeds consistency alpha presets; do
   echo "== $experiment"
   start=$(date +%s.%N)
   ./target/release/sweep "experiments/$experiment.toml" --quiet --reference-pool "$pool" \
