@@ -1,15 +1,24 @@
-//! Discrete sampling, one toolkit for every caller (pbrt-v4's `PiecewiseConstant1D/2D` and
-//! `AliasTable`): a piecewise-constant distribution over entries, its 2-D form (a marginal
-//! over rows and a conditional over each row's columns), and an alias table for constant-
-//! time draws from a fixed set. Each answers `sample`, `pmf` and `invert`, and hands back
-//! where the draw fell inside its entry so stratified numbers stay stratified.
+//! Discrete sampling, one toolkit for every caller (pbrt-v4's `PiecewiseConstant1D/2D`,
+//! `AliasTable` and `SampleDiscrete`): a piecewise-constant distribution over entries, its
+//! 2-D form (a marginal over rows and a conditional over each row's columns), an alias
+//! table for constant-time draws from a fixed set, and [`sample_discrete`] for one draw
+//! among a few weights built on the spot (the reference tracer's light choice, the
+//! environment's sun or map). The tables answer `sample`, `pmf` and `invert`; every draw
+//! hands back where it fell inside its entry so stratified numbers stay stratified.
+//! [`apportion`] splits a count over entries instead of drawing one (the photons each light
+//! emits).
 //!
 //! Sums are kept in `f64` (a large environment map's distribution would lose its small
 //! texels in `f32`), as running sums of the weights in their order, so a caller that
-//! summed the same weights in the same order gets the same bits.
+//! summed the same weights in the same order gets the same bits. [`sample_discrete`] sums
+//! its `f32` weights the same way, from 0 in index order.
 
 /// The largest `f64` below 1: a sample coordinate is clamped to `[0, ONE_BELOW]`.
 const ONE_BELOW: f64 = 1.0 - f64::EPSILON / 2.0;
+
+/// The largest `f32` below 1 (`1 − 2⁻²⁴`): [`sample_discrete`]'s remapped `u` is clamped to
+/// `[0, ONE_BELOW_F32]`.
+const ONE_BELOW_F32: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// A sample coordinate clamped into `[0, 1)` (a NaN reads as 0).
 pub(crate) fn unit_interval(u: f64) -> f64 {
@@ -315,9 +324,103 @@ impl AliasTable {
     }
 }
 
+/// One entry of `weights` (each ≥ 0) drawn by `u` (in `[0, 1)`) with probability
+/// `weight / total`: `(entry, its probability, u remapped)`, the last where the draw fell
+/// inside the entry, in `[0, 1)` (a fresh uniform for a choice that follows). `None` when
+/// the weights sum to 0 or to no finite number. An entry of weight 0 is never drawn.
+///
+/// The weights are summed from 0 in index order, so a caller that sums them the same way
+/// holds the same total to the bit: it can decide whether to draw at all before spending a
+/// random number, and divide by `total / weight` itself rather than by the probability.
+///
+/// pbrt-v4's `SampleDiscrete` (`src/pbrt/util/sampling.h`) is the model, with four
+/// differences. (1) pbrt walks a running sum up, `while (sum + w[i] <= up) sum += w[i++]`;
+/// ours subtracts each weight from `u · total` and stops at the first entry whose weight
+/// exceeds what is left. The two round differently, so at an entry's edge they may pick
+/// neighbours an ulp apart; the subtraction is the scan the reference tracer's light
+/// choice always made, and keeping it keeps the references' images bit-identical.
+/// (2) Weights of 0 (or below) are skipped by test, not by `sum + 0 <= up`. (3) pbrt
+/// nudges `up` below the total (`NextFloatDown`) and asserts it never runs past the end;
+/// here a draw that rounding carries past the end takes the last entry with weight, its
+/// `u` remapped to just below 1. (4) pbrt answers -1 for no weights and does not guard an
+/// all-zero or non-finite sum; here each is `None`. The remapped `u` is clamped into
+/// `[0, 1)` on both sides (pbrt: only from above).
+///
+/// ```text
+/// sample_discrete(&[1.0, 0.0, 3.0], 0.5) == Some((2, 0.75, 1.0 / 3.0))
+/// ```
+pub fn sample_discrete(weights: &[f32], u: f32) -> Option<(usize, f32, f32)> {
+    // The caller's loop, spelled out (`Sum` for floats starts from −0).
+    let mut total = 0.0f32;
+    for &w in weights {
+        total += w;
+    }
+    if !(total > 0.0 && total.is_finite()) {
+        return None;
+    }
+    let drawn = |entry: usize, rest: f32| {
+        let weight = weights[entry];
+        let within = rest / weight;
+        let within = if within.is_nan() {
+            0.0
+        } else {
+            within.clamp(0.0, ONE_BELOW_F32)
+        };
+        (entry, weight / total, within)
+    };
+    let mut rest = u * total;
+    let mut last = None;
+    for (entry, &weight) in weights.iter().enumerate().filter(|(_, w)| **w > 0.0) {
+        if rest < weight {
+            return Some(drawn(entry, rest));
+        }
+        last = Some((entry, rest));
+        rest -= weight;
+    }
+    // Only when rounding left `rest` at or past the last weight.
+    last.map(|(entry, rest)| drawn(entry, rest))
+}
+
+/// `total` items split over entries in proportion to `weights` (each ≥ 0) by the largest-
+/// remainder method: each entry gets the whole part of its exact share
+/// `total · weight / Σ weights`, and what is left goes one each to the entries of the
+/// largest fractional parts, the lower index first where they tie. The counts sum to
+/// `total`, each within 1 of its share, and an entry of weight 0 gets none; all are 0
+/// when the weights sum to 0 (or there are none).
+///
+/// ```text
+/// apportion(&[1.0, 1.0, 1.0], 2) == [1, 1, 0]
+/// apportion(&[0.0, 1.0, 0.0, 3.0], 7) == [0, 2, 0, 5]
+/// ```
+pub fn apportion(weights: &[f64], total: u64) -> Vec<u64> {
+    let sum: f64 = weights.iter().sum();
+    if sum <= 0.0 || weights.is_empty() {
+        return vec![0; weights.len()];
+    }
+    let exact: Vec<f64> = weights.iter().map(|w| total as f64 * w / sum).collect();
+    let mut counts: Vec<u64> = exact.iter().map(|e| e.floor() as u64).collect();
+    let mut remainder = total - counts.iter().sum::<u64>();
+    let mut order: Vec<usize> = (0..weights.len()).collect();
+    order.sort_by(|&a, &b| {
+        (exact[b] - exact[b].floor())
+            .partial_cmp(&(exact[a] - exact[a].floor()))
+            .unwrap_or(std::cmp::Ordering::Equal)
+            .then(a.cmp(&b))
+    });
+    for &i in order.iter().cycle() {
+        if remainder == 0 {
+            break;
+        }
+        counts[i] += 1;
+        remainder -= 1;
+    }
+    counts
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::{Domain, Rng};
 
     /// Draws `n` stratified uniforms and counts where they land.
     fn counts(n: usize, entries: usize, draw: impl Fn(f64) -> usize) -> Vec<f64> {
@@ -397,5 +500,250 @@ mod tests {
         assert!((mean - 0.5).abs() < 1e-3, "{mean}");
         assert!(AliasTable::new(&[0.0, 0.0]).is_none());
         assert!(AliasTable::new(&[f64::INFINITY]).is_none());
+    }
+
+    /// The reference tracer's light choice as it was written before the toolkit took it
+    /// over (`choose` in `integrator/reference/weighted.rs`), with the caller's sum: the
+    /// entry it took, or `None` where the caller drew nothing.
+    fn old_light_choice(weights: &[f32], u: f32) -> Option<usize> {
+        let mut total = 0.0f32;
+        for &w in weights {
+            total += w;
+        }
+        if total <= 0.0 {
+            return None;
+        }
+        let mut u = u * total;
+        let mut last = 0;
+        for (i, &w) in weights.iter().enumerate().filter(|(_, w)| **w > 0.0) {
+            if u < w {
+                return Some(i);
+            }
+            u -= w;
+            last = i;
+        }
+        Some(last)
+    }
+
+    #[test]
+    fn a_discrete_draw_takes_each_entry_by_its_weight_with_its_exact_pmf() {
+        let weights = [0.5f32, 2.0, 0.0, 1.5, 4.0];
+        let pmf = [0.0625f32, 0.25, 0.0, 0.1875, 0.5];
+        let n = 80_000;
+        let mut count = [0usize; 5];
+        for k in 0..n {
+            let u = (k as f32 + 0.5) / n as f32;
+            let (i, p, _) = sample_discrete(&weights, u).unwrap();
+            count[i] += 1;
+            assert_eq!(p, pmf[i], "entry {i}");
+            assert_eq!(p, weights[i] / 8.0);
+        }
+        // Stratified draws land within a draw or two of each expectation, so the chi-square
+        // statistic is far below its 3 degrees of freedom (where random draws would put it).
+        let chi2: f64 = (0..5)
+            .filter(|&i| pmf[i] > 0.0)
+            .map(|i| {
+                let expected = n as f64 * pmf[i] as f64;
+                (count[i] as f64 - expected).powi(2) / expected
+            })
+            .sum();
+        assert!(chi2 < 0.01, "chi-square {chi2}, counts {count:?}");
+        assert_eq!(count[2], 0);
+    }
+
+    #[test]
+    fn a_discrete_draw_remaps_u_uniformly_inside_each_entry() {
+        let weights = [0.5f32, 2.0, 0.0, 1.5, 4.0];
+        let n = 80_000;
+        // Per entry: how many draws, the sum of their remapped u, and a 10-bucket histogram.
+        let mut seen = [(0usize, 0.0f64, [0usize; 10]); 5];
+        for k in 0..n {
+            let (i, _, f) = sample_discrete(&weights, (k as f32 + 0.5) / n as f32).unwrap();
+            assert!((0.0..1.0).contains(&f), "{f}");
+            seen[i].0 += 1;
+            seen[i].1 += f as f64;
+            seen[i].2[(f * 10.0) as usize] += 1;
+        }
+        for (i, (draws, sum, buckets)) in seen.iter().enumerate().filter(|(_, s)| s.0 > 0) {
+            let mean = sum / *draws as f64;
+            assert!((mean - 0.5).abs() < 1e-3, "entry {i}: mean {mean}");
+            for (b, &c) in buckets.iter().enumerate() {
+                let expected = *draws as f64 / 10.0;
+                assert!(
+                    (c as f64 - expected).abs() <= 2.0,
+                    "entry {i}, bucket {b}: {c} of {draws}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_discrete_draw_never_takes_a_zero_weight_and_needs_a_positive_finite_sum() {
+        let mut rng = Rng::stream(7, Domain::Misc, 0);
+        for _ in 0..10_000 {
+            let weights: Vec<f32> = (0..6)
+                .map(|_| {
+                    if rng.uniform() < 0.4 {
+                        0.0
+                    } else {
+                        rng.uniform() * 10.0
+                    }
+                })
+                .collect();
+            for u in [0.0, rng.uniform(), ONE_BELOW_F32] {
+                match sample_discrete(&weights, u) {
+                    Some((i, p, f)) => {
+                        assert!(weights[i] > 0.0 && p > 0.0, "{weights:?} {u}: {i}");
+                        assert!((0.0..1.0).contains(&f), "{weights:?} {u}: {f}");
+                    }
+                    None => assert!(weights.iter().all(|&w| w == 0.0), "{weights:?}"),
+                }
+            }
+        }
+        // Rounding carries this draw past the last weight: it takes the last entry with
+        // weight (not the trailing 0), just below the top of it.
+        let weights = [0.3f32, 1.1, 0.001, 0.0];
+        let (i, _, f) = sample_discrete(&weights, ONE_BELOW_F32).unwrap();
+        assert_eq!((i, f), (2, ONE_BELOW_F32));
+        assert_eq!(old_light_choice(&weights, ONE_BELOW_F32), Some(2));
+        assert_eq!(sample_discrete(&[], 0.5), None);
+        assert_eq!(sample_discrete(&[0.0, 0.0], 0.5), None);
+        assert_eq!(sample_discrete(&[1.0, f32::INFINITY], 0.5), None);
+        assert_eq!(sample_discrete(&[1.0, f32::NAN], 0.5), None);
+    }
+
+    /// The reference tracer's light choice goes through [`sample_discrete`]: on any weights
+    /// (zeros, magnitudes from 10⁻⁶ to 10⁶, up to the 16 lights it chooses among) and any
+    /// `u` (the generator's 24-bit grid and off it) it takes the entry the old scan took.
+    #[test]
+    fn a_discrete_draw_is_the_old_light_choice_bit_for_bit() {
+        let mut rng = Rng::stream(11, Domain::Misc, 0);
+        for _ in 0..50_000 {
+            let n = 1 + (rng.uniform() * 16.0) as usize;
+            let weights: Vec<f32> = (0..n)
+                .map(|_| {
+                    if rng.uniform() < 0.25 {
+                        0.0
+                    } else {
+                        rng.uniform() * 10f32.powi((rng.uniform() * 13.0) as i32 - 6)
+                    }
+                })
+                .collect();
+            let on_grid = rng.uniform();
+            let off_grid = rng.uniform() * rng.uniform();
+            for u in [0.0, on_grid, off_grid, ONE_BELOW_F32] {
+                let mut total = 0.0f32;
+                for &w in &weights {
+                    total += w;
+                }
+                let got = sample_discrete(&weights, u);
+                assert_eq!(
+                    got.map(|(i, _, _)| i),
+                    old_light_choice(&weights, u),
+                    "{weights:?} {u}"
+                );
+                if let Some((i, p, _)) = got {
+                    assert_eq!(p.to_bits(), (weights[i] / total).to_bits());
+                }
+            }
+        }
+    }
+
+    /// The environment's sun-or-map choice through [`sample_discrete`] with the weights
+    /// `[p, 1 − p]`: since `p + (1 − p)` rounds to exactly 1 for every `p` in [0, 1], the
+    /// draw is the old `u < p`, and the remapped `u` the old `u / p` for the sun and
+    /// `((u − p) / (1 − p))` clamped for the map, bit for bit.
+    #[test]
+    fn a_two_way_draw_is_the_old_sun_or_map_choice_bit_for_bit() {
+        let old = |p: f32, u: f32| -> (usize, f32) {
+            if u < p {
+                (0, u / p)
+            } else {
+                (
+                    1,
+                    ((u - p) / (1.0 - p)).clamp(0.0, 1.0 - f32::EPSILON / 2.0),
+                )
+            }
+        };
+        let mut rng = Rng::stream(13, Domain::Misc, 0);
+        let mut ps = vec![
+            0.0,
+            1.0,
+            0.5,
+            0.5 - f32::EPSILON / 4.0,
+            0.5 + f32::EPSILON / 2.0,
+            ONE_BELOW_F32,
+            f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            1e-30,
+        ];
+        for _ in 0..20_000 {
+            let r = rng.uniform();
+            ps.push(r);
+            ps.push(r * r * r);
+        }
+        for p in ps {
+            assert_eq!(p + (1.0 - p), 1.0, "{p}");
+            let mut us = vec![
+                0.0,
+                ONE_BELOW_F32,
+                rng.uniform(),
+                rng.uniform() * rng.uniform(),
+            ];
+            if p < 1.0 {
+                us.push(p);
+            }
+            for u in us {
+                let (i, _, f) = sample_discrete(&[p, 1.0 - p], u).unwrap();
+                let (old_i, old_f) = old(p, u);
+                assert_eq!((i, f.to_bits()), (old_i, old_f.to_bits()), "p {p}, u {u}");
+            }
+        }
+    }
+
+    #[test]
+    fn apportioning_gives_each_entry_its_share_within_one_and_all_of_the_total() {
+        let mut rng = Rng::stream(17, Domain::Misc, 0);
+        for _ in 0..5_000 {
+            let n = 1 + (rng.uniform() * 10.0) as usize;
+            let weights: Vec<f64> = (0..n)
+                .map(|_| {
+                    if rng.uniform() < 0.3 {
+                        0.0
+                    } else {
+                        rng.uniform() as f64 * 100.0
+                    }
+                })
+                .collect();
+            let total = (rng.uniform() * 1e6) as u64;
+            let counts = apportion(&weights, total);
+            assert_eq!(counts.len(), n);
+            let sum: f64 = weights.iter().sum();
+            if sum == 0.0 {
+                assert!(counts.iter().all(|&c| c == 0), "{counts:?}");
+                continue;
+            }
+            assert_eq!(counts.iter().sum::<u64>(), total, "{weights:?}");
+            for (&c, &w) in counts.iter().zip(&weights) {
+                let share = total as f64 * w / sum;
+                assert!((c as f64 - share).abs() < 1.0, "{c} for {share}");
+                if w == 0.0 {
+                    assert_eq!(c, 0);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn apportioning_breaks_ties_by_index_and_gives_zero_weights_nothing() {
+        // Equal fractions: the lower index first.
+        assert_eq!(apportion(&[1.0, 1.0, 1.0], 2), [1, 1, 0]);
+        assert_eq!(apportion(&[1.0, 1.0, 1.0, 1.0], 5), [2, 1, 1, 1]);
+        assert_eq!(apportion(&[1.0, 2.0, 1.0], 2), [1, 1, 0]);
+        // The largest fraction first, whatever its index.
+        assert_eq!(apportion(&[0.0, 1.0, 0.0, 3.0], 7), [0, 2, 0, 5]);
+        assert_eq!(apportion(&[1.0, 3.0, 0.0001], 1001), [250, 751, 0]);
+        assert_eq!(apportion(&[0.0, 0.0], 9), [0, 0]);
+        assert_eq!(apportion(&[], 9), Vec::<u64>::new());
     }
 }

@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::control::Control;
 use crate::error::Result;
-use crate::math::{Domain, Ray, Rng, Sphere};
+use crate::math::{Domain, Ray, Rng, Sphere, apportion};
 use crate::medium::{FreePath, Medium};
 use crate::scene::{Light, MAX_PHOTONS};
 
@@ -100,7 +100,7 @@ pub struct TraceSettings {
 }
 
 /// Splits `total` photons over lights in proportion to the power they send towards
-/// `target` (largest remainders), so photons carry equal energies (§7.1.2).
+/// `target` (largest remainders, [`apportion`]), so photons carry equal energies (§7.1.2).
 pub fn photons_per_light(lights: &[Light], target: &Sphere, total: u64) -> Vec<u64> {
     let powers: Vec<f64> = lights
         .iter()
@@ -109,28 +109,7 @@ pub fn photons_per_light(lights: &[Light], target: &Sphere, total: u64) -> Vec<u
             (p.x as f64 + p.y as f64 + p.z as f64) / 3.0
         })
         .collect();
-    let sum: f64 = powers.iter().sum();
-    if sum <= 0.0 || lights.is_empty() {
-        return vec![0; lights.len()];
-    }
-    let exact: Vec<f64> = powers.iter().map(|p| total as f64 * p / sum).collect();
-    let mut counts: Vec<u64> = exact.iter().map(|e| e.floor() as u64).collect();
-    let mut remainder = total - counts.iter().sum::<u64>();
-    let mut order: Vec<usize> = (0..lights.len()).collect();
-    order.sort_by(|&a, &b| {
-        (exact[b] - exact[b].floor())
-            .partial_cmp(&(exact[a] - exact[a].floor()))
-            .unwrap_or(std::cmp::Ordering::Equal)
-            .then(a.cmp(&b))
-    });
-    for &i in order.iter().cycle() {
-        if remainder == 0 {
-            break;
-        }
-        counts[i] += 1;
-        remainder -= 1;
-    }
-    counts
+    apportion(&powers, total)
 }
 
 /// What the paths of one chunk of photons did, whatever they record.

@@ -25,7 +25,7 @@ use super::envmap::EnvironmentMap;
 use super::light::incident::{Incident, MAX_INTENSITY, check_radiance};
 use super::light::schema::{Intensity, LightKind, LightParams};
 use crate::error::{Error, Result};
-use crate::math::{Aabb, Frame, Ray, Rng, Sphere, concentric_disc};
+use crate::math::{Aabb, Frame, Ray, Rng, Sphere, concentric_disc, sample_discrete};
 
 /// The width of the equirectangular map a procedural sky is baked into (height half).
 pub const SKY_MAP_WIDTH: usize = 256;
@@ -392,15 +392,17 @@ impl EnvironmentLight {
         }
     }
 
-    /// A world direction towards the environment with its mixture pdf and radiance.
+    /// A world direction towards the environment with its mixture pdf and radiance: `u[0]`
+    /// chooses the sun or the map by their power and, remapped, samples the one chosen.
     pub fn sample(&self, u: [f32; 2]) -> Option<(Vec3, f32, Vec3)> {
         let p = self.sun_probability;
+        // `p + (1 − p)` rounds to exactly 1 for any `p` in [0, 1], so the draw is `u[0] < p`
+        // and the remapped `u[0]` is `u[0] / p` (sun) or `(u[0] − p) / (1 − p)` (map), bit
+        // for bit; without a sun `p` is 0 and the map gets `u[0]` as it was.
+        let (chosen, _, u0) = sample_discrete(&[p, 1.0 - p], u[0])?;
         let w = match self.sun {
-            Some(s) if u[0] < p => s.sample([u[0] / p, u[1]]),
-            _ => {
-                let u0 = ((u[0] - p) / (1.0 - p)).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
-                self.to_world(self.map.sample([u0, u[1]])?.0)
-            }
+            Some(s) if chosen == 0 => s.sample([u0, u[1]]),
+            _ => self.to_world(self.map.sample([u0, u[1]])?.0),
         };
         let pdf = self.pdf(w);
         (pdf > 0.0).then(|| (w, pdf, self.eval(w)))

@@ -31,7 +31,7 @@ use glam::Vec3;
 use super::mis;
 use super::routes::LightVisibility;
 use super::{MAX_VERTICES, PathSample};
-use crate::math::{Ray, Rng};
+use crate::math::{Ray, Rng, sample_discrete};
 use crate::medium::{Medium, ShadowBy, ShadowSegment};
 use crate::scene::{Light, Scene};
 
@@ -299,43 +299,32 @@ fn direct_from_one_light(
         return direct_from_every_light(scene, x, incoming, rng, exact, work);
     }
     let medium = scene.medium();
-    let mut candidates = [(Vec3::ZERO, Vec3::ZERO, 0.0f32, 0.0f32); MAX_CHOSEN_LIGHTS];
+    let mut candidates = [(Vec3::ZERO, Vec3::ZERO, 0.0f32); MAX_CHOSEN_LIGHTS];
+    let mut weights = [0.0f32; MAX_CHOSEN_LIGHTS];
     let mut total = 0.0f32;
-    for (l, (slot, light)) in candidates.iter_mut().zip(lights).enumerate() {
-        if let Some((radiance, to_light, distance)) = unshadowed(medium, light, x, incoming, rng) {
+    for (l, light) in lights.iter().enumerate() {
+        if let Some(candidate) = unshadowed(medium, light, x, incoming, rng) {
             // With a guide, the choice also weighs how much of the light gets through the
             // region around `x` (never less than a floor, so every light stays possible).
             let seen = visibility.map_or(1.0, |v| v.weight(x, l));
-            let weight = (radiance.x + radiance.y + radiance.z).max(0.0) * seen;
-            *slot = (radiance, to_light, distance, weight);
-            total += weight;
+            let radiance = candidate.0;
+            weights[l] = (radiance.x + radiance.y + radiance.z).max(0.0) * seen;
+            candidates[l] = candidate;
+            total += weights[l];
         }
     }
     if total <= 0.0 {
         return Vec3::ZERO;
     }
-    let (radiance, to_light, distance, weight) = choose(&candidates[..lights.len()], total, rng);
+    // The toolkit sums the weights as this loop did and draws by the same subtractive
+    // scan, so the light chosen and `total / weight` are the bits they always were.
+    let Some((chosen, _, _)) = sample_discrete(&weights[..lights.len()], rng.uniform()) else {
+        return Vec3::ZERO;
+    };
+    let (radiance, to_light, distance) = candidates[chosen];
     *work += 1;
-    radiance * (transmittance(medium, x, to_light, distance, rng, exact) * total / weight)
-}
-
-/// A candidate drawn with probability `weight / total` (the last one with a weight when
-/// rounding leaves the draw past the end).
-fn choose(
-    candidates: &[(Vec3, Vec3, f32, f32)],
-    total: f32,
-    rng: &mut Rng,
-) -> (Vec3, Vec3, f32, f32) {
-    let mut u = rng.uniform() * total;
-    let mut last = candidates[0];
-    for c in candidates.iter().filter(|c| c.3 > 0.0) {
-        if u < c.3 {
-            return *c;
-        }
-        u -= c.3;
-        last = *c;
-    }
-    last
+    let t = transmittance(medium, x, to_light, distance, rng, exact);
+    radiance * (t * total / weights[chosen])
 }
 
 /// The light `light` sends to `x` and the phase function scatters back along `incoming`,
