@@ -1,12 +1,14 @@
 //! How a long render reports its progress and when it must stop: a [`Control`] carries a
 //! progress callback (rows or photon chunks finished) and an optional time limit, checked
 //! between rows and between photon chunks, so a runaway render ends with
-//! [`Error::TimeLimit`] instead of running on.
+//! [`Error::TimeLimit`] instead of running on. A reference pass given a [`Counting`]
+//! ([`Control::with_counting`]) also counts its work there.
 
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
 
+use crate::counters::Counting;
 use crate::error::{Error, Result};
 
 fn no_progress(_: u64) {}
@@ -18,6 +20,7 @@ pub struct Control<'a> {
     deadline: Option<(Instant, Duration)>,
     reference: Option<&'a [Vec3]>,
     error_probes: bool,
+    counting: Option<&'a Counting>,
 }
 
 impl std::fmt::Debug for Control<'_> {
@@ -25,6 +28,7 @@ impl std::fmt::Debug for Control<'_> {
         f.debug_struct("Control")
             .field("time_limit", &self.deadline.map(|(_, d)| d))
             .field("error_probes", &self.error_probes)
+            .field("counting", &self.counting.is_some())
             .finish()
     }
 }
@@ -43,6 +47,7 @@ impl<'a> Control<'a> {
             deadline: None,
             reference: None,
             error_probes: true,
+            counting: None,
         }
     }
 
@@ -53,6 +58,7 @@ impl<'a> Control<'a> {
             deadline: None,
             reference: None,
             error_probes: true,
+            counting: None,
         }
     }
 
@@ -83,6 +89,19 @@ impl<'a> Control<'a> {
         self.error_probes
     }
 
+    /// Counts the work of every reference pass of this render into `counting` (collisions,
+    /// density lookups, majorant bricks, shadow rays: [`crate::Counter`]). Off by default;
+    /// a counted pass renders the same bits.
+    pub fn with_counting(mut self, counting: &'a Counting) -> Self {
+        self.counting = Some(counting);
+        self
+    }
+
+    /// Where this render's passes count their work, if anywhere.
+    pub(crate) fn counting(&self) -> Option<&'a Counting> {
+        self.counting
+    }
+
     /// Stops the render with [`Error::TimeLimit`] once `limit` has passed from now.
     pub fn with_time_limit(mut self, limit: Duration) -> Self {
         self.deadline = Some((Instant::now() + limit, limit));
@@ -101,6 +120,7 @@ impl<'a> Control<'a> {
             deadline: self.deadline,
             reference: self.reference,
             error_probes: self.error_probes,
+            counting: self.counting,
         }
     }
 

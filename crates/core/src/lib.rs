@@ -55,6 +55,7 @@
 #![deny(missing_docs)]
 
 mod control;
+mod counters;
 mod error;
 mod film;
 mod integrator;
@@ -71,6 +72,7 @@ mod volume;
 pub mod test_util;
 
 pub use control::Control;
+pub use counters::{Counter, Counting, Counts};
 pub use error::{Error, Result, check_non_negative};
 pub use film::{
     Agreement, Film, Layer, agreement, luminance, mean_rgb, read_pfm, rmse, to_srgb8, write_pfm,

@@ -113,7 +113,7 @@ pub(crate) enum Command {
     Index(IndexArgs),
     /// Benchmark the thesis's headline frame (foot, 512², 40 000 photons, nused 150).
     #[command(
-        after_help = "Example:\n  sweep bench --threads 2\n  sweep bench --quick          (a smaller frame on a phantom)\n  sweep bench --reference --json reports/bench/reference-thesis.json   (the path tracer's trackers)\n  sweep bench --reference --budget --json reports/bench/reference-budget.json   (where its noise comes from)"
+        after_help = "Example:\n  sweep bench --threads 2\n  sweep bench --quick          (a smaller frame on a phantom)\n  sweep bench --reference --json reports/bench/reference-thesis.json   (the path tracer's trackers)\n  sweep bench --reference --budget --json reports/bench/reference-budget.json   (where its noise comes from)\n  sweep bench --reference --routes --counters   (each render's collisions, lookups, bricks and shadow rays counted)"
     )]
     Bench(BenchArgs),
     /// Find the best settings: Hyperband over resolution and photon count with tree-Parzen
@@ -539,6 +539,12 @@ pub(crate) struct BenchArgs {
     /// samples, a visibility-weighted light choice, both) against the trackers.
     #[arg(long, requires = "reference", conflicts_with = "budget")]
     pub(crate) routes: bool,
+    /// With `--reference`: count each render's work in its last pass (null and real
+    /// collisions, ratio-tracking steps, density lookups, majorant bricks, shadow rays),
+    /// timed apart from the other passes, so that what counting costs is measured beside
+    /// it; the image is the same to the bit.
+    #[arg(long, requires = "reference", conflicts_with = "budget")]
+    pub(crate) counters: bool,
     /// With `--budget`: samples per pixel of each of its rungs.
     #[arg(long, default_value_t = 16, requires = "budget", value_parser = clap::value_parser!(u32).range(2..=4096))]
     pub(crate) budget_samples: u32,
@@ -966,6 +972,7 @@ impl BenchArgs {
             budget: self.budget,
             budget_samples: self.budget_samples,
             routes: self.routes,
+            counters: self.counters,
             lighting: self.lighting.map(Lighting::style),
         })
     }

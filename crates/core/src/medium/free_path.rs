@@ -15,6 +15,7 @@ use std::ops::ControlFlow;
 use serde::{Deserialize, Serialize};
 
 use super::Medium;
+use crate::counters::{self, Counter, WalkCounts};
 use crate::math::{Ray, Rng};
 
 /// Free-path sampling rule for photons (§5.1, §7.1.2).
@@ -34,7 +35,9 @@ pub enum FreePath {
 /// majorant segment of `ray` over `[t0, t1]` with σ_maj > 0, samples exponential steps at
 /// rate σ_maj and calls `at_collision(t, σ_maj, rng)` at each tentative collision that lies
 /// inside the segment. Returns the `t` at which the callback stopped the walk, or `None`
-/// when the ray left `[t0, t1]` first.
+/// when the ray left `[t0, t1]` first. The bricks it steps and the steps that leave a
+/// brick are counted in locals and added to the pass's counters once, at the walk's end
+/// ([`crate::counters`]); the callers count the tentative collisions.
 #[inline]
 pub(crate) fn sample_t_maj<F>(
     medium: &Medium,
@@ -47,32 +50,42 @@ pub(crate) fn sample_t_maj<F>(
 where
     F: FnMut(f32, f32, &mut Rng) -> ControlFlow<()>,
 {
-    for seg in medium.segments(ray, t0, t1) {
-        if seg.sigma_maj == 0.0 {
-            continue;
-        }
-        let mut t = seg.t_min;
-        loop {
-            let next = t - rng.uniform_open0().ln() / seg.sigma_maj;
-            // Always progress: a step below the precision of `t` (which the σ bound of
-            // `SigmaMapping::resolve` rules out for any valid medium) still moves on.
-            t = if next > t { next } else { t.next_up() };
-            if t >= seg.t_max {
-                break;
+    let mut walk = WalkCounts::default();
+    let stopped = 'walk: {
+        for seg in medium.segments(ray, t0, t1) {
+            walk.bricks += 1;
+            if seg.sigma_maj == 0.0 {
+                walk.empty += 1;
+                continue;
             }
-            if at_collision(t, seg.sigma_maj, rng).is_break() {
-                return Some(t);
+            let mut t = seg.t_min;
+            loop {
+                let next = t - rng.uniform_open0().ln() / seg.sigma_maj;
+                // Always progress: a step below the precision of `t` (which the σ bound of
+                // `SigmaMapping::resolve` rules out for any valid medium) still moves on.
+                t = if next > t { next } else { t.next_up() };
+                if t >= seg.t_max {
+                    walk.overshoots += 1;
+                    break;
+                }
+                if at_collision(t, seg.sigma_maj, rng).is_break() {
+                    break 'walk Some(t);
+                }
             }
         }
-    }
-    None
+        None
+    };
+    walk.add();
+    stopped
 }
 
 impl Medium {
     /// Unbiased transmittance over `[t0, t1]` by ratio tracking with Russian roulette.
     pub fn transmittance_ratio_tracking(&self, ray: &Ray, t0: f32, t1: f32, rng: &mut Rng) -> f32 {
         let mut tr = 1.0f32;
+        let mut steps = 0u32;
         let stopped = sample_t_maj(self, ray, t0, t1, rng, |t, sigma_maj, rng| {
+            steps += 1;
             tr *= 1.0 - self.sigma_t(ray.at(t)) / sigma_maj;
             if tr < 0.1 {
                 // Russian roulette keeps the estimator unbiased and bounded in cost.
@@ -83,6 +96,7 @@ impl Medium {
             }
             ControlFlow::Continue(())
         });
+        counters::add(Counter::RatioSteps, u64::from(steps));
         if stopped.is_some() { 0.0 } else { tr }
     }
 
@@ -96,13 +110,17 @@ impl Medium {
         t1: f32,
         rng: &mut Rng,
     ) -> Option<f32> {
-        sample_t_maj(self, ray, t0, t1, rng, |t, sigma_maj, rng| {
+        let mut tentative = 0u32;
+        let collision = sample_t_maj(self, ray, t0, t1, rng, |t, sigma_maj, rng| {
+            tentative += 1;
             if rng.uniform() * sigma_maj < self.sigma_t(ray.at(t)) {
                 ControlFlow::Break(())
             } else {
                 ControlFlow::Continue(())
             }
-        })
+        });
+        counters::delta_walk(tentative, collision.is_some());
+        collision
     }
 
     /// [`Medium::sample_interaction_delta`] with its first tentative collision placed by the
@@ -119,8 +137,13 @@ impl Medium {
         rng: &mut Rng,
     ) -> Option<f32> {
         let mut depth = -(1.0 - u).max(f32::MIN_POSITIVE).ln();
+        // Counted as one walk with the delta-tracked rest, when there is one (which counts
+        // itself).
+        let mut walk = WalkCounts::default();
         for seg in self.segments(ray, t0, t1) {
+            walk.bricks += 1;
             if seg.sigma_maj == 0.0 {
+                walk.empty += 1;
                 continue;
             }
             let reach = seg.sigma_maj * (seg.t_max - seg.t_min);
@@ -129,11 +152,16 @@ impl Medium {
                 continue;
             }
             let t = seg.t_min + depth / seg.sigma_maj;
+            walk.add();
             if rng.uniform() * seg.sigma_maj < self.sigma_t(ray.at(t)) {
+                counters::delta_walk(1, true);
                 return Some(t);
             }
+            counters::count(Counter::NullCollisions);
             return self.sample_interaction_delta(ray, t, t1, rng);
         }
+        walk.add();
+        counters::delta_walk(0, false);
         None
     }
 

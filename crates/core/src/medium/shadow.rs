@@ -8,6 +8,7 @@
 use glam::Vec3;
 
 use super::Medium;
+use crate::counters::{self, Counter};
 use crate::math::{Ray, Rng};
 
 /// A shadow segment: from `origin` along the unit `direction` for `distance` (a light's
@@ -79,8 +80,10 @@ impl Medium {
         }
     }
 
-    /// The transmittance along `segment` by `by` (1 where it misses the medium).
+    /// The transmittance along `segment` by `by` (1 where it misses the medium). Counted as
+    /// a shadow ray in a counted pass ([`crate::Counter`]).
     pub fn shadow_transmittance(&self, segment: &ShadowSegment, by: ShadowBy<'_>) -> f32 {
+        counters::count(Counter::ShadowRays);
         let Some((ray, t0, t1)) = self.shadow_interval(segment) else {
             return 1.0;
         };

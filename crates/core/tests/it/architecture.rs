@@ -15,9 +15,9 @@ use check::{
 };
 
 /// The core's stages, lowest first: a stage's files may import only the stages before it
-/// (modules outside the list — `math`, `util`, `error`, `control` — are the ground every
-/// stage stands on). The film is the sink the integrators write into, so it sits below
-/// them and knows no stage.
+/// (modules outside the list — `math`, `util`, `error`, `control`, `counters` — are the
+/// ground every stage stands on). The film is the sink the integrators write into, so it
+/// sits below them and knows no stage.
 const CORE_LAYERS: [&str; 7] = [
     "film",
     "volume",

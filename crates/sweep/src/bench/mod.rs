@@ -164,6 +164,8 @@ pub(crate) struct BenchOptions {
     pub(crate) budget_samples: u32,
     /// With the reference mode: race the routes to a faster reference too.
     pub(crate) routes: bool,
+    /// With the reference mode: count each render's work in its last pass, timed apart.
+    pub(crate) counters: bool,
     /// The style of the scene's `[three_point]` lights (the scene's own when `None`).
     pub(crate) lighting: Option<volphot::LightingStyle>,
 }

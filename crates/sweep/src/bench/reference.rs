@@ -10,6 +10,12 @@
 //! 1/passes: `passes(ε) = passes · MSE / ε²`, and `CPU(ε) = pilot + per_pass · passes(ε)`,
 //! where `pilot` is the weighted tracker's allocation pilot (measured as the first pass's
 //! CPU time less a pass's).
+//!
+//! With `--counters` each render's last pass counts its work ([`volphot::Counter`]: null
+//! and real collisions, ratio-tracking steps, density lookups, majorant bricks, shadow
+//! rays) and is timed apart: the per-pass time comes from the uncounted passes, and the
+//! counted pass's time beside it is what counting costs. Counting changes no bit of the
+//! image, so the error is the same either way.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -18,8 +24,8 @@ use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use serde::Serialize;
 use volphot::{
-    Control, IntegratorParams, Method, ReferenceAccumulator, Scene, SceneParams, SearchPath,
-    Tracker, process_cpu_seconds,
+    Control, Counter, Counting, Counts, IntegratorParams, Method, ReferenceAccumulator, Scene,
+    SceneParams, SearchPath, Tracker, process_cpu_seconds,
 };
 
 use super::{BenchOptions, Machine};
@@ -89,6 +95,28 @@ struct TrackerResult {
     rmse: f64,
     /// The CPU-seconds to each target RMSE.
     cpu_to_rmse: Vec<CpuTo>,
+    /// With `--counters`: the counted passes' work and what counting cost.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    counters: Option<CounterSummary>,
+}
+
+/// The work of the counted passes (one a seed), means over the seeds.
+#[derive(Debug, Serialize)]
+struct CounterSummary {
+    /// The counted pass's CPU-seconds.
+    counted_pass_cpu_s: f64,
+    /// Its time over an uncounted pass's (`cpu_per_pass_s`), less 1.
+    counting_cost: f64,
+    /// Every counter, in `volphot::Counter::ALL`'s order.
+    means: Vec<CounterMean>,
+}
+
+/// One counter's mean count in a pass, and per sample traced.
+#[derive(Debug, Serialize)]
+struct CounterMean {
+    counter: &'static str,
+    per_pass: f64,
+    per_sample: f64,
 }
 
 /// The CPU-seconds to an RMSE.
@@ -103,8 +131,28 @@ struct CpuTo {
 struct SeedRun {
     seed: u64,
     first_pass_cpu_s: f64,
+    /// The passes after the first, but the counted one.
     other_passes_cpu_s: f64,
     mse: f64,
+    /// With `--counters`: the last pass, counted and timed apart.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    counted_pass: Option<CountedPass>,
+}
+
+/// A pass traced with its work counted: its CPU time and every counter's count.
+#[derive(Debug, Serialize)]
+struct CountedPass {
+    cpu_s: f64,
+    counts: Vec<CounterCount>,
+    #[serde(skip)]
+    totals: Counts,
+}
+
+/// One counter's count in a pass.
+#[derive(Debug, Serialize)]
+struct CounterCount {
+    counter: &'static str,
+    count: u64,
 }
 
 /// The converged reference of a case: image (all layers) and variance of its mean.
@@ -119,6 +167,12 @@ pub(crate) fn run(args: &BenchOptions) -> Result<ExitCode> {
     if args.passes < 2 {
         bail!(
             "--passes {}: expected at least 2 (the first pass is timed apart)",
+            args.passes
+        );
+    }
+    if args.counters && args.passes < 3 {
+        bail!(
+            "--passes {} with --counters: expected at least 3 (the first pass and the counted last one are timed apart from the others)",
             args.passes
         );
     }
@@ -223,7 +277,7 @@ fn measure_case(
                 let p = with(params, tracker, params.integrator.seed + 1 + k);
                 let scene = Scene::from_params(&p, base, &search)?;
                 scene.medium().prepare();
-                measure_render(&scene, args.passes, route, &reference)
+                measure_render(&scene, args.passes, route, &reference, args.counters)
             })
             .collect::<Result<Vec<_>>>()
     };
@@ -314,31 +368,53 @@ fn pooled_reference(
 
 /// One render, timed: the first pass apart (it runs the weighted tracker's pilot) from the
 /// rest, and its error against the reference. With a `route`, the weighted tracker along
-/// that route to a faster reference; without, the scene's own tracker.
+/// that route to a faster reference; without, the scene's own tracker. `counted`: the last
+/// pass counts its work and is timed apart from the others.
 fn measure_render(
     scene: &Scene,
     passes: u32,
     route: Option<volphot::Route>,
     reference: &Reference,
+    counted: bool,
 ) -> Result<SeedRun> {
     let cpu = || process_cpu_seconds().context("CPU time is not available here");
     let camera = scene.camera();
     let mut acc = ReferenceAccumulator::new(camera.width() as usize, camera.height() as usize);
-    let add = |acc: &mut ReferenceAccumulator, n: u32| match route {
-        Some(route) => acc.add_passes_route(scene, n, route, &Control::none()),
-        None => acc.add_passes(scene, n, &Control::none()),
+    let add = |acc: &mut ReferenceAccumulator, n: u32, control: &Control<'_>| match route {
+        Some(route) => acc.add_passes_route(scene, n, route, control),
+        None => acc.add_passes(scene, n, control),
     };
+    let none = Control::none();
     let start = cpu()?;
-    add(&mut acc, 1)?;
+    add(&mut acc, 1, &none)?;
     let first = cpu()?;
-    add(&mut acc, passes - 1)?;
+    add(&mut acc, passes - 1 - u32::from(counted), &none)?;
     let end = cpu()?;
+    let counted_pass = if counted {
+        let counting = Counting::new();
+        add(&mut acc, 1, &Control::none().with_counting(&counting))?;
+        let totals = counting.total();
+        Some(CountedPass {
+            cpu_s: cpu()? - end,
+            counts: totals
+                .iter()
+                .map(|(c, count)| CounterCount {
+                    counter: c.name(),
+                    count,
+                })
+                .collect(),
+            totals,
+        })
+    } else {
+        None
+    };
     let image = acc.film().total();
     Ok(SeedRun {
         seed: scene.integrator().seed,
         first_pass_cpu_s: first - start,
         other_passes_cpu_s: end - first,
         mse: mse_against_noisy_reference(&image, &reference.image, &reference.variance),
+        counted_pass,
     })
 }
 
@@ -346,7 +422,9 @@ fn measure_render(
 fn summarise(tracker: Tracker, passes: u32, seeds: Vec<SeedRun>) -> TrackerResult {
     let n = seeds.len() as f64;
     let mean = |f: &dyn Fn(&SeedRun) -> f64| seeds.iter().map(f).sum::<f64>() / n;
-    let per_pass = mean(&|s| s.other_passes_cpu_s) / f64::from(passes - 1);
+    // The counted pass (`--counters`) is timed apart from the other passes.
+    let counted = u32::from(seeds.iter().any(|s| s.counted_pass.is_some()));
+    let per_pass = mean(&|s| s.other_passes_cpu_s) / f64::from(passes - 1 - counted);
     let pilot = (mean(&|s| s.first_pass_cpu_s) - per_pass).max(0.0);
     let mse = mean(&|s| s.mse).max(0.0);
     let cpu_to_rmse = TARGETS
@@ -363,8 +441,37 @@ fn summarise(tracker: Tracker, passes: u32, seeds: Vec<SeedRun>) -> TrackerResul
         cpu_per_pass_s: per_pass,
         rmse: mse.sqrt(),
         cpu_to_rmse,
+        counters: counter_summary(&seeds, per_pass),
         seeds,
     }
+}
+
+/// The counted passes' means over the seeds (`None` when no pass was counted), and their
+/// time over `per_pass`, an uncounted pass's.
+fn counter_summary(seeds: &[SeedRun], per_pass: f64) -> Option<CounterSummary> {
+    let counted: Vec<&CountedPass> = seeds
+        .iter()
+        .filter_map(|s| s.counted_pass.as_ref())
+        .collect();
+    if counted.is_empty() {
+        return None;
+    }
+    let n = counted.len() as f64;
+    let mean = |c: Counter| counted.iter().map(|p| p.totals.get(c) as f64).sum::<f64>() / n;
+    let samples = mean(Counter::Samples);
+    let cpu = counted.iter().map(|p| p.cpu_s).sum::<f64>() / n;
+    Some(CounterSummary {
+        counted_pass_cpu_s: cpu,
+        counting_cost: cpu / per_pass - 1.0,
+        means: Counter::ALL
+            .into_iter()
+            .map(|c| CounterMean {
+                counter: c.name(),
+                per_pass: mean(c),
+                per_sample: mean(c) / samples,
+            })
+            .collect(),
+    })
 }
 
 fn print_case(case: &Case) {
@@ -408,10 +515,56 @@ fn print_case(case: &Case) {
             r.route
         );
     }
+    print_counters(case);
     println!(
         "  weighted is {:.2}× as fast to RMSE 0.01",
         case.speedup_at_001
     );
+}
+
+/// With `--counters`: the counted passes' work per sample traced (samples per pass in the
+/// first row), one column per tracker and route, and what counting cost.
+fn print_counters(case: &Case) {
+    let trackers = case
+        .trackers
+        .iter()
+        .map(|t| (format!("{:?}", t.tracker).to_lowercase(), t));
+    let routes = case
+        .routes
+        .iter()
+        .map(|r| (r.route.to_string(), &r.renders));
+    let columns: Vec<(String, &CounterSummary)> = trackers
+        .chain(routes)
+        .filter_map(|(name, t)| t.counters.as_ref().map(|c| (name, c)))
+        .collect();
+    if columns.is_empty() {
+        return;
+    }
+    print!("  {:<24}", "work per sample");
+    for (name, _) in &columns {
+        print!(" {name:>12.12}");
+    }
+    println!();
+    for (i, counter) in Counter::ALL.into_iter().enumerate() {
+        let (label, per_pass) = match counter {
+            Counter::Samples => ("samples (per pass)".to_string(), true),
+            other => (other.name().to_string(), false),
+        };
+        print!("  {label:<24}");
+        for (_, c) in &columns {
+            let m = &c.means[i];
+            print!(
+                " {:>12.3}",
+                if per_pass { m.per_pass } else { m.per_sample }
+            );
+        }
+        println!();
+    }
+    print!("  {:<24}", "counting's cost");
+    for (_, c) in &columns {
+        print!(" {:>11.1}%", 100.0 * c.counting_cost);
+    }
+    println!();
 }
 
 fn print_summary(cases: &[Case]) {

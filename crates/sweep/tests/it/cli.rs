@@ -489,6 +489,70 @@ fn bench_reference_races_the_routes_beside_the_trackers() {
 }
 
 #[test]
+fn bench_reference_counts_each_render_s_work_in_its_last_pass() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("s.toml");
+    std::fs::write(&scene, BENCH_SCENE).unwrap();
+    let json = tmp.path().join("b.json");
+    let bench = |passes: &str| {
+        sweep()
+            .args(["bench", "--reference", "--counters", "--sigma-t", "10"])
+            .args([
+                "--passes",
+                passes,
+                "--seeds",
+                "2",
+                "--reference-passes",
+                "16",
+            ])
+            .arg("--scene")
+            .arg(&scene)
+            .arg("--reference-pool")
+            .arg(tmp.path().join("pool"))
+            .arg("--json")
+            .arg(&json)
+            .output()
+            .unwrap()
+    };
+    // The first pass and the counted one are timed apart: two passes leave none to time.
+    let out = bench("2");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--counters") && err.contains("3"), "{err}");
+    let out = bench("4");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("null_collisions") && stdout.contains("counting's cost"),
+        "{stdout}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for t in report["cases"][0]["trackers"].as_array().unwrap() {
+        let rows = t["counters"]["means"].as_array().unwrap();
+        let value = |name: &str| {
+            let row = rows.iter().find(|r| r["counter"] == name).unwrap();
+            row["per_pass"].as_f64().unwrap()
+        };
+        assert!(value("samples") > 0.0, "{t}");
+        assert!(value("real_collisions") > 0.0, "{t}");
+        assert!(value("shadow_rays") > 0.0, "{t}");
+        assert!(value("bricks_stepped") >= value("empty_bricks"), "{t}");
+        for seed in t["seeds"].as_array().unwrap() {
+            assert!(
+                seed["counted_pass"]["cpu_s"].as_f64().unwrap() >= 0.0,
+                "{t}"
+            );
+            assert_eq!(seed["counted_pass"]["counts"].as_array().unwrap().len(), 11);
+        }
+    }
+}
+
+#[test]
 fn bench_reference_needs_the_thesis_mapping() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = tmp.path().join("s.toml");

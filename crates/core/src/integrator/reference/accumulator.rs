@@ -11,6 +11,7 @@ use super::allocation::Allocation;
 use super::routes::{LightVisibility, Route, stratified_eye};
 use super::{PathSample, delta, weighted};
 use crate::control::Control;
+use crate::counters::{self, Counter, Counts, Tallying};
 use crate::error::{Error, Result};
 use crate::film::{Film, Layer};
 use crate::math::{Domain, Rng};
@@ -245,16 +246,22 @@ impl ReferenceAccumulator {
         let (seed, tracker) = (scene.integrator().seed, scene.integrator().tracker);
         let allocation = self.allocation.as_ref();
         let samples = |i: usize, p: u32| allocation.map_or(p, |a| a.samples(i, p));
-        self.pixels
+        let counting = control.counting();
+        // Each row counts on its own thread (when counting) and the rows' counts are summed
+        // once, at the end of the call: no atomic in the loops (`crate::counters`).
+        let counted = self
+            .pixels
             .par_chunks_mut(width)
             .enumerate()
-            .for_each(|(y, row)| {
+            .map(|(y, row)| {
                 if control.expired() {
-                    return;
+                    return Counts::default();
                 }
+                let tally = Tallying::start(counting.is_some());
                 for (x, stats) in row.iter_mut().enumerate() {
                     let pixel = y * width + x;
-                    for k in samples(pixel, first)..samples(pixel, first + passes) {
+                    let (from, to) = (samples(pixel, first), samples(pixel, first + passes));
+                    for k in from..to {
                         let mut rng = Rng::stream2(seed, Domain::Reference, pixel as u64, k as u64);
                         let sample = match route {
                             Some(r) => {
@@ -264,10 +271,16 @@ impl ReferenceAccumulator {
                         };
                         stats.add(&sample, (k + 1) as f32);
                     }
+                    counters::add(Counter::Samples, u64::from(to - from));
                 }
                 control.report(rows_done.fetch_add(1, Ordering::Relaxed) + 1);
-            });
+                tally.finish()
+            })
+            .reduce(Counts::default, |a, b| a + b);
         control.check()?;
+        if let Some(counting) = counting {
+            counting.add(counted);
+        }
         self.passes += passes;
         Ok(start.elapsed().as_secs_f64())
     }

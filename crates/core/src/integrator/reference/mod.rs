@@ -263,6 +263,61 @@ mod tests {
     }
 
     #[test]
+    fn counting_changes_no_bit_and_counts_the_same_on_any_thread_count() {
+        use crate::counters::{Counter, Counting, Counts};
+        for (tracker, scene) in both(SPOT_SPHERE) {
+            let plain = accumulated(&scene, 3);
+            let counted = |threads: usize| -> (ReferenceAccumulator, Counts) {
+                let counting = Counting::new();
+                let control = Control::none().with_counting(&counting);
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let acc = pool.install(|| {
+                    let mut acc = ReferenceAccumulator::new(20, 20);
+                    acc.add_passes(&scene, 3, &control).unwrap();
+                    acc
+                });
+                (acc, counting.total())
+            };
+            let (one, counts) = counted(1);
+            let (two, counts_on_two) = counted(2);
+            assert_eq!(one, plain, "{tracker:?}: one thread, counted");
+            assert_eq!(two, plain, "{tracker:?}: two threads, counted");
+            assert_eq!(counts, counts_on_two, "{tracker:?}");
+            // Every sample of the passes (not the pilot's) is counted, once.
+            let samples: u64 = plain
+                .samples_per_pixel()
+                .iter()
+                .map(|&n| u64::from(n))
+                .sum();
+            assert_eq!(counts.get(Counter::Samples), samples, "{tracker:?}");
+            for c in [
+                Counter::FreePathWalks,
+                Counter::NullCollisions,
+                Counter::RealCollisions,
+                Counter::RatioSteps,
+                Counter::BricksStepped,
+                Counter::ShadowRays,
+            ] {
+                assert!(counts.get(c) > 0, "{tracker:?}: no {c:?} in {counts:?}");
+            }
+            // In a grey medium without emission every density lookup is one tentative
+            // collision's.
+            let tentative = counts.get(Counter::NullCollisions)
+                + counts.get(Counter::RealCollisions)
+                + counts.get(Counter::RatioSteps);
+            assert_eq!(
+                counts.get(Counter::DensityLookups),
+                tentative,
+                "{tracker:?}"
+            );
+            assert_eq!(counts.get(Counter::ColourLookups), 0, "{tracker:?}");
+        }
+    }
+
+    #[test]
     fn the_pilot_gives_the_medium_more_samples_than_empty_space() {
         // SPOT_SPHERE: a sphere in the middle of the frame, black around it.
         let (_, weighted) = both(SPOT_SPHERE).into_iter().nth(1).unwrap();
