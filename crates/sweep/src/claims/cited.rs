@@ -59,6 +59,21 @@ impl Cited {
         }
     }
 
+    /// `value` written in this number's form for `sweep claims --update`: the same form
+    /// when that prints two significant digits or more, or the value exactly; otherwise
+    /// with the decimals two significant digits need (`13` rewritten to 8.36 prints `8.4`,
+    /// since `8` would not pass the check it is written for).
+    pub(crate) fn reprinted(&self, value: f64) -> String {
+        let mantissa = (value / 10f64.powi(self.exponent)).abs();
+        let scaled = mantissa * 10f64.powi(self.decimals as i32);
+        let exact = (scaled - scaled.round()).abs() <= 1e-9 * scaled.max(1.0);
+        if exact || scaled.round() >= 10.0 {
+            self.format(value)
+        } else {
+            self.two_significant(value).format(value)
+        }
+    }
+
     pub(crate) fn half_unit(&self) -> f64 {
         0.5 * 10f64.powi(self.exponent - self.decimals as i32)
     }
@@ -254,6 +269,21 @@ mod tests {
 
     fn last(text: &str) -> Cited {
         last_number(text).unwrap_or_else(|| panic!("no number in {text:?}"))
+    }
+
+    #[test]
+    fn a_rewritten_number_keeps_its_form_unless_that_prints_too_few_digits() {
+        // `13` rewritten to 8.36 would print `8`, which its own check refuses (fewer than
+        // two significant digits, not exact): it gets the decimal it needs.
+        assert_eq!(last("cost 13 %").reprinted(8.355795), "8.4");
+        assert_eq!(last("cost 13 %").reprinted(25.3), "25");
+        assert_eq!(
+            last("3 seeds").reprinted(4.0),
+            "4",
+            "an exact count stays a count"
+        );
+        assert_eq!(last("0.157").reprinted(0.1612), "0.161");
+        assert_eq!(last("−0.09 %").reprinted(-0.0042), "−0.0042");
     }
 
     #[test]

@@ -270,7 +270,7 @@ pub(crate) fn updated(text: &str, checked: &[Checked]) -> String {
                 (
                     claim.line_start + cited.span.0,
                     claim.line_start + cited.span.1,
-                    cited.format(*v),
+                    cited.reprinted(*v),
                 )
             }),
             (Outcome::Coarse(v), Some(claim)) => claim.cited.as_ref().map(|cited| {
