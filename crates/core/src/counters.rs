@@ -38,10 +38,12 @@ pub enum Counter {
     BricksStepped,
     /// Of those, the bricks with σ_maj = 0 (crossed without a draw).
     EmptyBricks,
-    /// Density lookups: every σt, σs and emission asked at a point.
+    /// Density lookups of the trackers: one at each tentative collision (delta and ratio
+    /// tracking), two at each vertex that collects emission. Counted where the trackers make
+    /// them, not in [`crate::Medium`]'s point queries, which every integrator calls.
     DensityLookups,
-    /// Albedos asked at a point of a medium coloured by its transfer function (three
-    /// colour grids each; 0 in a grey medium, whose albedo is a constant).
+    /// Albedos the trackers ask at a vertex of a medium coloured by its transfer function
+    /// (three colour grids each; 0 in a grey medium, whose albedo is a constant).
     ColourLookups,
     /// Shadow rays: transmittances to a light, by any estimator (those that miss the
     /// medium included).
@@ -162,12 +164,7 @@ thread_local! {
 /// it is off).
 #[inline]
 pub(crate) fn add(counter: Counter, n: u64) {
-    TALLY.with(|t| {
-        if t.on.get() {
-            let c = &t.counts[counter as usize];
-            c.set(c.get() + n);
-        }
-    });
+    add_each([(counter, n)]);
 }
 
 /// Counts one `counter` ([`add`]).
@@ -190,7 +187,7 @@ pub(crate) fn add_each<const N: usize>(counts: [(Counter, u64); N]) {
 }
 
 /// Adds a delta-tracking walk that sampled `tentative` tentative collisions, the last of
-/// them real when `real`.
+/// them real when `real` (its density lookups are the caller's to count).
 #[inline]
 pub(crate) fn delta_walk(tentative: u32, real: bool) {
     let real = u64::from(real);

@@ -96,7 +96,12 @@ impl Medium {
             }
             ControlFlow::Continue(())
         });
-        counters::add(Counter::RatioSteps, u64::from(steps));
+        // Each step is one density lookup.
+        let steps = u64::from(steps);
+        counters::add_each([
+            (Counter::RatioSteps, steps),
+            (Counter::DensityLookups, steps),
+        ]);
         if stopped.is_some() { 0.0 } else { tr }
     }
 
@@ -120,6 +125,7 @@ impl Medium {
             }
         });
         counters::delta_walk(tentative, collision.is_some());
+        counters::add(Counter::DensityLookups, u64::from(tentative));
         collision
     }
 
@@ -155,9 +161,10 @@ impl Medium {
             walk.add();
             if rng.uniform() * seg.sigma_maj < self.sigma_t(ray.at(t)) {
                 counters::delta_walk(1, true);
+                counters::count(Counter::DensityLookups);
                 return Some(t);
             }
-            counters::count(Counter::NullCollisions);
+            counters::add_each([(Counter::NullCollisions, 1), (Counter::DensityLookups, 1)]);
             return self.sample_interaction_delta(ray, t, t1, rng);
         }
         walk.add();

@@ -42,7 +42,6 @@ pub use sigma::{
 };
 pub use transfer::{Pgm, TransferFunction, TransferKind, TransferParams, write_pgm};
 
-use crate::counters::{self, Counter};
 use crate::error::{Error, Result};
 use crate::math::{Aabb, Ray, Sphere};
 use crate::volume::{
@@ -279,11 +278,9 @@ impl Medium {
         &self.density
     }
 
-    /// Transferred density at `p` (0 where a clip removes the medium). Counted as a density
-    /// lookup in a counted pass ([`crate::Counter`]).
+    /// Transferred density at `p` (0 where a clip removes the medium).
     #[inline]
     pub fn density(&self, p: Vec3) -> f32 {
-        counters::count(Counter::DensityLookups);
         if let Some(region) = &self.clip_region
             && !region.contains(p)
         {
@@ -347,7 +344,6 @@ impl Medium {
         match &self.colour {
             None => self.albedo,
             Some(rgb) => {
-                counters::count(Counter::ColourLookups);
                 let c = rgb.each_ref().map(|g| g.sample(p, self.reconstruction));
                 self.albedo * Vec3::from(c)
             }

@@ -143,16 +143,21 @@ struct SeedRun {
 #[derive(Debug, Serialize)]
 struct CountedPass {
     cpu_s: f64,
-    counts: Vec<CounterCount>,
-    #[serde(skip)]
-    totals: Counts,
+    #[serde(serialize_with = "counts_by_name")]
+    counts: Counts,
 }
 
-/// One counter's count in a pass.
-#[derive(Debug, Serialize)]
-struct CounterCount {
-    counter: &'static str,
-    count: u64,
+/// `counts` as `[{counter, count}]` rows, in [`Counter::ALL`]'s order.
+fn counts_by_name<S: serde::Serializer>(counts: &Counts, s: S) -> Result<S::Ok, S::Error> {
+    #[derive(Serialize)]
+    struct Row {
+        counter: &'static str,
+        count: u64,
+    }
+    s.collect_seq(counts.iter().map(|(c, count)| Row {
+        counter: c.name(),
+        count,
+    }))
 }
 
 /// The converged reference of a case: image (all layers) and variance of its mean.
@@ -393,17 +398,9 @@ fn measure_render(
     let counted_pass = if counted {
         let counting = Counting::new();
         add(&mut acc, 1, &Control::none().with_counting(&counting))?;
-        let totals = counting.total();
         Some(CountedPass {
             cpu_s: cpu()? - end,
-            counts: totals
-                .iter()
-                .map(|(c, count)| CounterCount {
-                    counter: c.name(),
-                    count,
-                })
-                .collect(),
-            totals,
+            counts: counting.total(),
         })
     } else {
         None
@@ -457,7 +454,7 @@ fn counter_summary(seeds: &[SeedRun], per_pass: f64) -> Option<CounterSummary> {
         return None;
     }
     let n = counted.len() as f64;
-    let mean = |c: Counter| counted.iter().map(|p| p.totals.get(c) as f64).sum::<f64>() / n;
+    let mean = |c: Counter| counted.iter().map(|p| p.counts.get(c) as f64).sum::<f64>() / n;
     let samples = mean(Counter::Samples);
     let cpu = counted.iter().map(|p| p.cpu_s).sum::<f64>() / n;
     Some(CounterSummary {

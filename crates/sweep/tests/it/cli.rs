@@ -374,29 +374,35 @@ resolution = [16, 16]
 [three_point]
 "#;
 
+/// `sweep bench --reference --sigma-t 10 --seeds 2` on [`BENCH_SCENE`] (written to `dir`
+/// once), with the pool and the JSON in `dir`, and `args` after.
+fn bench_reference(dir: &std::path::Path, args: &[&str]) -> std::process::Output {
+    let scene = dir.join("s.toml");
+    if !scene.exists() {
+        std::fs::write(&scene, BENCH_SCENE).unwrap();
+    }
+    sweep()
+        .args(["bench", "--reference", "--sigma-t", "10", "--seeds", "2"])
+        .args(args)
+        .arg("--scene")
+        .arg(&scene)
+        .arg("--reference-pool")
+        .arg(dir.join("pool"))
+        .arg("--json")
+        .arg(dir.join("b.json"))
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn bench_reference_compares_the_trackers_against_a_pooled_reference() {
     let tmp = tempfile::tempdir().unwrap();
-    let scene = tmp.path().join("s.toml");
-    std::fs::write(&scene, BENCH_SCENE).unwrap();
-    let (pool, json) = (tmp.path().join("pool"), tmp.path().join("b.json"));
+    let json = tmp.path().join("b.json");
     let bench = |reference_passes: &str| {
-        let out = sweep()
-            .args(["bench", "--reference", "--sigma-t", "10", "--passes", "4"])
-            .args([
-                "--seeds",
-                "2",
-                "--reference-passes",
-                reference_passes,
-                "--scene",
-            ])
-            .arg(&scene)
-            .arg("--reference-pool")
-            .arg(&pool)
-            .arg("--json")
-            .arg(&json)
-            .output()
-            .unwrap();
+        let out = bench_reference(
+            tmp.path(),
+            &["--passes", "4", "--reference-passes", reference_passes],
+        );
         let err = String::from_utf8_lossy(&out.stderr).into_owned();
         assert!(out.status.success(), "{err}");
         err
@@ -438,20 +444,11 @@ fn bench_reference_compares_the_trackers_against_a_pooled_reference() {
 #[test]
 fn bench_reference_races_the_routes_beside_the_trackers() {
     let tmp = tempfile::tempdir().unwrap();
-    let scene = tmp.path().join("s.toml");
-    std::fs::write(&scene, BENCH_SCENE).unwrap();
     let json = tmp.path().join("b.json");
-    let out = sweep()
-        .args(["bench", "--reference", "--routes", "--sigma-t", "10"])
-        .args(["--passes", "4", "--seeds", "2", "--reference-passes", "16"])
-        .arg("--scene")
-        .arg(&scene)
-        .arg("--reference-pool")
-        .arg(tmp.path().join("pool"))
-        .arg("--json")
-        .arg(&json)
-        .output()
-        .unwrap();
+    let out = bench_reference(
+        tmp.path(),
+        &["--routes", "--passes", "4", "--reference-passes", "16"],
+    );
     assert!(
         out.status.success(),
         "{}",
@@ -491,28 +488,12 @@ fn bench_reference_races_the_routes_beside_the_trackers() {
 #[test]
 fn bench_reference_counts_each_render_s_work_in_its_last_pass() {
     let tmp = tempfile::tempdir().unwrap();
-    let scene = tmp.path().join("s.toml");
-    std::fs::write(&scene, BENCH_SCENE).unwrap();
     let json = tmp.path().join("b.json");
     let bench = |passes: &str| {
-        sweep()
-            .args(["bench", "--reference", "--counters", "--sigma-t", "10"])
-            .args([
-                "--passes",
-                passes,
-                "--seeds",
-                "2",
-                "--reference-passes",
-                "16",
-            ])
-            .arg("--scene")
-            .arg(&scene)
-            .arg("--reference-pool")
-            .arg(tmp.path().join("pool"))
-            .arg("--json")
-            .arg(&json)
-            .output()
-            .unwrap()
+        bench_reference(
+            tmp.path(),
+            &["--counters", "--passes", passes, "--reference-passes", "16"],
+        )
     };
     // The first pass and the counted one are timed apart: two passes leave none to time.
     let out = bench("2");

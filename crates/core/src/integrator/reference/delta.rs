@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 
-use super::{MAX_VERTICES, PathSample};
+use super::{MAX_VERTICES, PathSample, albedo_at, emission_at};
 use crate::math::{Ray, Rng};
 use crate::medium::{ShadowBy, ShadowSegment};
 use crate::scene::Scene;
@@ -25,11 +25,10 @@ pub(super) fn trace_path(scene: &Scene, mut ray: Ray, rng: &mut Rng) -> PathSamp
         };
         let x = ray.at(t);
         if vertices == 0 && settings.emission && medium.has_emission() {
-            // Collision estimator of ∫ T ε dt: the collision density is σt·T.
-            out.emission += beta * medium.emission(x) / medium.sigma_t(x);
+            out.emission += beta * emission_at(medium, x);
         }
         // Absorb or scatter with the albedo (σs/σt) as survival probability.
-        let albedo = medium.albedo_at(x);
+        let albedo = albedo_at(medium, x);
         let survive = crate::medium::survival_probability(albedo);
         if survive <= 0.0 || rng.uniform() >= survive {
             break;

@@ -40,8 +40,10 @@ pub use budget::{
 pub use routes::Route;
 
 use crate::control::Control;
+use crate::counters::{self, Counter};
 use crate::error::Result;
 use crate::film::Film;
+use crate::medium::Medium;
 use crate::scene::Scene;
 
 /// Vertices after which a path is stopped (albedo ≈ 1 in a closed medium).
@@ -56,6 +58,22 @@ struct PathSample {
     /// Work units spent (eye rays, vertices, shadow rays): the pilot's measure of a
     /// pixel's cost, the same on every machine and thread count.
     work: u32,
+}
+
+/// The emission a first vertex at `x` collects: the collision estimator of ∫ T ε dt, whose
+/// collision density is σt·T. Its two density lookups are counted in a counted pass.
+fn emission_at(medium: &Medium, x: Vec3) -> Vec3 {
+    counters::add(Counter::DensityLookups, 2);
+    medium.emission(x) / medium.sigma_t(x)
+}
+
+/// The albedo at a vertex `x`, counted as a colour lookup in a counted pass when the
+/// medium is coloured.
+fn albedo_at(medium: &Medium, x: Vec3) -> Vec3 {
+    if medium.has_colour() {
+        counters::count(Counter::ColourLookups);
+    }
+    medium.albedo_at(x)
 }
 
 /// Renders a reference image with `passes` passes (samples per pixel, on average by cost

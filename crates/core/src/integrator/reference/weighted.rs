@@ -30,7 +30,7 @@ use glam::Vec3;
 
 use super::mis;
 use super::routes::LightVisibility;
-use super::{MAX_VERTICES, PathSample};
+use super::{MAX_VERTICES, PathSample, albedo_at, emission_at};
 use crate::math::{Ray, Rng, sample_discrete};
 use crate::medium::{Medium, ShadowBy, ShadowSegment};
 use crate::scene::{Light, Scene};
@@ -119,7 +119,7 @@ pub(super) fn from_first_vertex(
     out: &mut PathSample,
 ) {
     let settings = scene.integrator();
-    let albedo = scene.medium().albedo_at(x);
+    let albedo = albedo_at(scene.medium(), x);
     if settings.single {
         out.single += single_at(scene, x, incoming, rng, walk.knobs, &mut out.work);
     }
@@ -171,8 +171,7 @@ pub(super) fn first_vertex(
     let x = ray.at(t);
     out.work += 1;
     if scene.integrator().emission && medium.has_emission() {
-        // Collision estimator of ∫ T ε dt: the collision density is σt·T.
-        out.emission += medium.emission(x) / medium.sigma_t(x);
+        out.emission += emission_at(medium, x);
     }
     Some(x)
 }
@@ -187,7 +186,7 @@ fn single_at(
     knobs: Knobs,
     work: &mut u32,
 ) -> Vec3 {
-    let albedo = scene.medium().albedo_at(x);
+    let albedo = albedo_at(scene.medium(), x);
     let exact = knobs.exact_single_transmittance;
     albedo * direct_from_every_light(scene, x, incoming, rng, exact, work)
 }
@@ -230,7 +229,7 @@ fn scatter_on(
         };
         x = ray.at(t);
         out.work += 1;
-        throughput *= medium.albedo_at(x);
+        throughput *= albedo_at(medium, x);
         let largest = throughput.max_element();
         if knobs.no_roulette {
             if largest < NO_ROULETTE_CUT {
